@@ -30,9 +30,22 @@ struct GroundTrajectory {
   std::vector<double> headings_rad;        // [T] unwrapped (continuous) heading angles
 };
 
-// The root joint's rest-pose facing direction, expressed in the root joint's local frame,
-// estimated from left/right hips and shoulders (name-based, see mirror_map) as
-// up x (left - right), or +Z when the skeleton has no left/right pairs. Unit length.
+// The root joint's rest-pose facing direction, expressed in the root joint's local frame. Unit
+// length. In the rest pose all local rotations are identity, so every joint's frame is parallel
+// to the root's and the same vector is the facing direction in any joint's frame (e.g. in Hips'
+// frame for Bandai-Namco, whose joint 0 is a static joint_Root).
+// Estimated from the left/right limb pair attached nearest the root (the hips; pairs found by
+// name, see mirror_map; a pair sitting on one point, like CMU's LHipJoint/RHipJoint, is followed
+// down to LeftUpLeg/RightUpLeg) and the body's up direction, taken from the pelvis along its
+// unpaired child chain (the spine), or the skeleton's up axis when there is none:
+//   forward = normalize((left - right) x body_up)
+// (right-handed: a Y-up character facing +Z has its left at +X). Shoulders are not used: their
+// rest positions go through spine joints whose rest frames may differ from the root's (in
+// Bandai-Namco's rest pose the body lies along +X, the legs' left/right axis is Y and the
+// shoulders' is Z). Falls back to the heading-0 direction (+Z for Y-up, +X for Z-up, +Y for
+// X-up) when the skeleton has no left/right pairs.
+// Verified on real data: Bandai-Namco gives about +Z in Hips' frame, CMU about +Z in Hips' frame,
+// and walking clips then move forward along the heading.
 Eigen::Vector3d estimate_forward_in_root(const Skeleton& skeleton);
 
 // Rotation by angle_rad about the skeleton's up axis.
