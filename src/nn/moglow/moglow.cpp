@@ -1,0 +1,383 @@
+#include "nn/moglow/moglow.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <torch/nn/init.h>
+#include <torch/utils.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace mosyn::nn {
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+
+int get_int(const nlohmann::json& j, const char* key) {
+  if (!j.at(key).is_number_integer()) throw Error(std::string("moglow config: '") + key + "' must be an integer");
+  return j.at(key).get<int>();
+}
+double get_double(const nlohmann::json& j, const char* key) {
+  if (!j.at(key).is_number()) throw Error(std::string("moglow config: '") + key + "' must be a number");
+  return j.at(key).get<double>();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const ModelContext& context) {
+  MoGlowOptions o;
+  if (!config.is_object()) throw Error("moglow config must be a JSON object");
+  if (config.contains("preset")) {
+    if (!config["preset"].is_string()) throw Error("moglow config: 'preset' must be a string");
+    o.preset = config["preset"].get<std::string>();
+  }
+  if (o.preset == "paper") {
+    o.num_steps = 16;
+    o.hidden = 512;
+    o.lstm_layers = 2;
+    o.tau = 10;
+  } else if (o.preset != "default") {
+    throw Error("moglow config: unknown preset '" + o.preset + "' (known: default, paper)");
+  }
+  for (auto it = config.begin(); it != config.end(); ++it) {
+    const std::string& k = it.key();
+    if (k == "preset" || k == "family") continue;
+    if (k == "num_steps") o.num_steps = get_int(config, "num_steps");
+    else if (k == "hidden") o.hidden = get_int(config, "hidden");
+    else if (k == "lstm_layers") o.lstm_layers = get_int(config, "lstm_layers");
+    else if (k == "tau") o.tau = get_int(config, "tau");
+    else if (k == "dropout") o.dropout = get_double(config, "dropout");
+    else if (k == "scale_eps") o.scale_eps = get_double(config, "scale_eps");
+    else throw Error("moglow config: unknown key '" + k + "'");
+  }
+  if (o.dropout < 0) o.dropout = context.pose_form == "positions" ? 0.95 : 0.6;
+  if (o.num_steps < 1) throw Error("moglow config: num_steps must be >= 1");
+  if (o.hidden < 1) throw Error("moglow config: hidden must be >= 1");
+  if (o.lstm_layers < 1) throw Error("moglow config: lstm_layers must be >= 1");
+  if (o.tau < 1) throw Error("moglow config: tau must be >= 1");
+  if (o.dropout > 1.0) throw Error("moglow config: dropout must be in [0, 1]");
+  if (o.scale_eps < 0) throw Error("moglow config: scale_eps must be >= 0");
+  return o;
+}
+
+nlohmann::json MoGlowOptions::to_json() const {
+  return {{"preset", preset},   {"num_steps", num_steps}, {"hidden", hidden},
+          {"lstm_layers", lstm_layers}, {"tau", tau}, {"dropout", dropout}, {"scale_eps", scale_eps}};
+}
+
+// ---------------------------------------------------------------------------------------------
+// ActNorm
+
+ActNormImpl::ActNormImpl(int dim) {
+  bias = register_parameter("bias", torch::zeros({dim}));
+  logs = register_parameter("logs", torch::zeros({dim}));
+  initialized_flag = register_buffer("initialized", torch::zeros({1}));
+}
+
+torch::Tensor ActNormImpl::forward(const torch::Tensor& x) { return (x + bias) * torch::exp(logs); }
+torch::Tensor ActNormImpl::reverse(const torch::Tensor& y) { return y * torch::exp(-logs) - bias; }
+torch::Tensor ActNormImpl::logdet() const { return logs.sum(); }
+bool ActNormImpl::initialized() const { return initialized_flag.item<double>() != 0.0; }
+
+void ActNormImpl::initialize(const torch::Tensor& x) {
+  torch::NoGradGuard no_grad;
+  auto flat = x.reshape({-1, x.size(-1)});
+  auto mean = flat.mean(0);
+  auto std = (flat - mean).pow(2).mean(0).sqrt();
+  bias.copy_(-mean);
+  logs.copy_(-torch::log(std + 1e-6));
+  initialized_flag.fill_(1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// InvLinear
+
+InvLinearImpl::InvLinearImpl(int dim) {
+  // Random orthogonal W (QR of a Gaussian matrix drawn from torch's generator), then W = P L U.
+  auto g = torch::randn({dim, dim}, torch::kFloat64).contiguous();
+  Eigen::MatrixXd a(dim, dim);
+  for (int r = 0; r < dim; ++r)
+    for (int c = 0; c < dim; ++c) a(r, c) = g[r][c].item<double>();
+  Eigen::MatrixXd q = Eigen::HouseholderQR<Eigen::MatrixXd>(a).householderQ();
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu(q);  // P q = L U  ->  q = P^T L U
+  Eigen::MatrixXd packed = lu.matrixLU();
+  Eigen::MatrixXd pt = lu.permutationP().transpose().toDenseMatrix().cast<double>();
+  auto opts = torch::TensorOptions().dtype(torch::kFloat64);
+  auto p_t = torch::zeros({dim, dim}, opts), l_t = torch::zeros({dim, dim}, opts), u_t = torch::zeros({dim, dim}, opts);
+  auto s_t = torch::zeros({dim}, opts);
+  auto pa = p_t.accessor<double, 2>(), la = l_t.accessor<double, 2>(), ua = u_t.accessor<double, 2>();
+  auto sa = s_t.accessor<double, 1>();
+  for (int r = 0; r < dim; ++r) {
+    for (int c = 0; c < dim; ++c) {
+      pa[r][c] = pt(r, c);
+      if (c < r) la[r][c] = packed(r, c);
+      if (c > r) ua[r][c] = packed(r, c);
+    }
+    sa[r] = packed(r, r);
+  }
+  lower = register_parameter("lower", l_t.to(torch::kFloat32));
+  upper = register_parameter("upper", u_t.to(torch::kFloat32));
+  log_s = register_parameter("log_s", torch::log(torch::abs(s_t)).to(torch::kFloat32));
+  perm = register_buffer("perm", p_t.to(torch::kFloat32));
+  sign_s = register_buffer("sign_s", torch::sign(s_t).to(torch::kFloat32));
+  lower_mask = register_buffer("lower_mask", torch::tril(torch::ones({dim, dim}), -1));
+  eye = register_buffer("eye", torch::eye(dim));
+}
+
+torch::Tensor InvLinearImpl::weight() const {
+  auto l = lower * lower_mask + eye;
+  auto u = upper * lower_mask.t() + torch::diag(sign_s * torch::exp(log_s));
+  return perm.matmul(l).matmul(u);
+}
+
+torch::Tensor InvLinearImpl::forward(const torch::Tensor& a) { return a.matmul(weight().t()); }
+torch::Tensor InvLinearImpl::reverse(const torch::Tensor& b, const torch::Tensor& w_inverse) {
+  return b.matmul(w_inverse.t());
+}
+torch::Tensor InvLinearImpl::logdet() const { return log_s.sum(); }
+
+// ---------------------------------------------------------------------------------------------
+// Coupling
+
+CouplingImpl::CouplingImpl(int dim, int cond_dim, int hidden, int layers, double scale_eps)
+    : dim_(dim), d_lo_(dim / 2), eps_(scale_eps) {
+  lstm = register_module("lstm", torch::nn::LSTM(torch::nn::LSTMOptions(d_lo_ + cond_dim, hidden).num_layers(layers)));
+  out = register_module("out", torch::nn::Linear(hidden, 2 * (dim - d_lo_)));
+  torch::NoGradGuard no_grad;
+  out->weight.zero_();
+  out->bias.zero_();
+}
+
+std::tuple<torch::Tensor, torch::Tensor> CouplingImpl::shift_scale(const torch::Tensor& lo, const torch::Tensor& cond,
+                                                                   c10::optional<LstmState>& state) {
+  auto input = torch::cat({lo, cond}, -1);
+  auto result = lstm->forward(input, state);
+  state = std::get<1>(result);
+  auto h = out->forward(std::get<0>(result));
+  int d_hi = dim_ - d_lo_;
+  auto shift = h.narrow(-1, 0, d_hi);
+  auto scale = torch::sigmoid(h.narrow(-1, d_hi, d_hi) + 2.0) + eps_;
+  return {shift, scale};
+}
+
+std::tuple<torch::Tensor, torch::Tensor> CouplingImpl::forward(const torch::Tensor& b, const torch::Tensor& cond,
+                                                               c10::optional<LstmState>& state) {
+  auto lo = b.narrow(-1, 0, d_lo_);
+  auto hi = b.narrow(-1, d_lo_, dim_ - d_lo_);
+  auto [shift, scale] = shift_scale(lo, cond, state);
+  auto z = torch::cat({lo, (hi + shift) * scale}, -1);
+  return {z, torch::log(scale).sum(-1)};
+}
+
+torch::Tensor CouplingImpl::reverse(const torch::Tensor& z, const torch::Tensor& cond,
+                                    c10::optional<LstmState>& state) {
+  auto lo = z.narrow(-1, 0, d_lo_);
+  auto hi = z.narrow(-1, d_lo_, dim_ - d_lo_);
+  auto [shift, scale] = shift_scale(lo, cond, state);
+  return torch::cat({lo, hi / scale - shift}, -1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// FlowStep
+
+FlowStepImpl::FlowStepImpl(int dim, int cond_dim, int hidden, int layers, double scale_eps) {
+  actnorm = register_module("actnorm", ActNorm(dim));
+  linear = register_module("linear", InvLinear(dim));
+  coupling = register_module("coupling", Coupling(dim, cond_dim, hidden, layers, scale_eps));
+}
+
+std::tuple<torch::Tensor, torch::Tensor> FlowStepImpl::forward(const torch::Tensor& x, const torch::Tensor& cond,
+                                                               c10::optional<LstmState>& state) {
+  if (is_training() && !actnorm->initialized()) actnorm->initialize(x.detach());
+  auto a = actnorm->forward(x);
+  auto b = linear->forward(a);
+  auto [z, logdet] = coupling->forward(b, cond, state);
+  return {z, logdet + actnorm->logdet() + linear->logdet()};
+}
+
+torch::Tensor FlowStepImpl::reverse(const torch::Tensor& z, const torch::Tensor& cond,
+                                    c10::optional<LstmState>& state, const torch::Tensor& w_inverse) {
+  auto b = coupling->reverse(z, cond, state);
+  auto a = linear->reverse(b, w_inverse);
+  return actnorm->reverse(a);
+}
+
+// ---------------------------------------------------------------------------------------------
+// MoGlow
+
+MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context)
+    : MotionModel("MoGlow"), options_(options), context_(context) {
+  const int d = context.pose_dim, c = context.control_dim, tau = options.tau;
+  cond_dim_ = tau * d + (tau + 1) * c;
+  dropout_ = options.dropout;
+  for (int k = 0; k < options.num_steps; ++k)
+    steps.push_back(register_module("step" + std::to_string(k),
+                                    FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
+}
+
+torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control) const {
+  const int64_t tau = options_.tau, b = pose.size(0), t = pose.size(1);
+  const int64_t n = t - tau;
+  // unfold(1, w, 1): [B, windows, F, w]; window s covers frames s..s+w-1.
+  auto hist = pose.narrow(1, 0, t - 1).unfold(1, tau, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
+  auto ctrl = control.unfold(1, tau + 1, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
+  return torch::cat({hist, ctrl}, -1).transpose(0, 1);
+}
+
+MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::Tensor& control,
+                                       const torch::Tensor& history_keep,
+                                       const std::vector<c10::optional<LstmState>>* init_states) {
+  const int64_t tau = options_.tau;
+  if (pose.dim() != 3 || pose.size(2) != context_.pose_dim)
+    throw Error("moglow: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
+  if (control.dim() != 3 || control.size(2) != context_.control_dim || control.size(0) != pose.size(0) ||
+      control.size(1) != pose.size(1))
+    throw Error("moglow: control must be [B, T, " + std::to_string(context_.control_dim) + "] matching pose");
+  if (pose.size(1) <= tau)
+    throw Error("moglow: windows need more than tau = " + std::to_string(tau) + " frames, got " +
+                std::to_string(pose.size(1)));
+  auto hist_pose = history_keep.defined() ? pose * history_keep.unsqueeze(-1).to(pose.dtype()) : pose;
+  auto cond = conditioning(hist_pose, control);
+  auto x = pose.narrow(1, tau, pose.size(1) - tau).transpose(0, 1);  // [T', B, D]
+  Encoded e;
+  e.states.resize(steps.size());
+  if (init_states) e.states = *init_states;
+  torch::Tensor logdet = torch::zeros({x.size(0), x.size(1)}, x.options());
+  for (size_t k = 0; k < steps.size(); ++k) {
+    auto [z, ld] = steps[k]->forward(x, cond, e.states[k]);
+    x = z;
+    logdet = logdet + ld;
+  }
+  e.z = x.transpose(0, 1);
+  e.logdet = logdet.transpose(0, 1);
+  return e;
+}
+
+torch::Tensor MoGlowImpl::log_likelihood(const torch::Tensor& pose, const torch::Tensor& control) {
+  auto e = encode(pose, control);
+  const double d = context_.pose_dim;
+  return -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;
+}
+
+LossTerms MoGlowImpl::loss(const Batch& batch) {
+  torch::Tensor keep;
+  if (is_training() && dropout_ > 0) {
+    // Whole frames dropped (zeroed = mean pose); drawn on the CPU generator so training is
+    // reproducible on any device.
+    keep = torch::bernoulli(torch::full({batch.pose.size(0), batch.pose.size(1)}, 1.0 - dropout_))
+               .to(batch.pose.device());
+  }
+  auto e = encode(batch.pose, batch.control, keep);
+  const double d = context_.pose_dim;
+  auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
+  auto nll_frame = -ll.mean();
+  LossTerms out;
+  out.terms["loss"] = nll_frame / d;
+  out.terms["nll_frame"] = nll_frame.detach();
+  out.terms["nll_dim"] = (nll_frame / d).detach();
+  out.terms["logdet_frame"] = e.logdet.mean().detach();
+  return out;
+}
+
+namespace {
+
+struct MoGlowStream : StreamState {
+  torch::Tensor pose_hist;  // [B, tau, D]
+  torch::Tensor ctrl_hist;  // [B, tau, C]: controls of the previous tau frames
+  std::vector<c10::optional<LstmState>> states;
+  std::vector<torch::Tensor> w_inverse;
+  at::Generator generator;
+  double temperature = 1.0;
+  torch::TensorOptions options;
+};
+
+int64_t batch_of(const SampleRequest& r) {
+  for (const auto* t : {&r.control, &r.prefix_pose, &r.prefix_control, &r.content, &r.style})
+    if (t->defined()) return t->size(0);
+  if (r.batch > 0) return r.batch;
+  throw Error("sample request: no batch size (give prefix_pose, labels or batch)");
+}
+
+// Last n frames of x [B, P, F], zero-padded in front when P < n.
+torch::Tensor last_frames(const torch::Tensor& x, int64_t n, int64_t b, int64_t f, const torch::TensorOptions& o) {
+  auto out = torch::zeros({b, n, f}, o);
+  if (!x.defined() || x.size(1) == 0) return out;
+  int64_t p = std::min<int64_t>(n, x.size(1));
+  out.narrow(1, n - p, p).copy_(x.narrow(1, x.size(1) - p, p));
+  return out;
+}
+
+}  // namespace
+
+std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  const int64_t b = batch_of(request), tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
+  auto st = std::make_unique<MoGlowStream>();
+  auto param = steps.front()->actnorm->bias;
+  st->options = param.options();
+  st->temperature = request.temperature;
+  st->generator = at::detail::createCPUGenerator(request.seed);
+  if (request.prefix_pose.defined() && (request.prefix_pose.dim() != 3 || request.prefix_pose.size(2) != d))
+    throw Error("sample request: prefix_pose must be [B, P, " + std::to_string(d) + "]");
+  if (request.prefix_control.defined() && (request.prefix_control.dim() != 3 || request.prefix_control.size(2) != c))
+    throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "]");
+  torch::Tensor pre_pose = request.prefix_pose.defined() ? request.prefix_pose.to(st->options) : torch::Tensor();
+  torch::Tensor pre_ctrl;
+  if (pre_pose.defined()) {
+    pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(st->options)
+                                                : torch::zeros({b, pre_pose.size(1), c}, st->options);
+  }
+  st->states.resize(steps.size());
+  // A prefix longer than tau warms the coupling LSTMs up, as the window context does in training.
+  if (pre_pose.defined() && pre_pose.size(1) > tau) {
+    auto e = encode(pre_pose, pre_ctrl);
+    st->states = e.states;
+  }
+  st->pose_hist = last_frames(pre_pose, tau, b, d, st->options);
+  st->ctrl_hist = last_frames(pre_ctrl, tau, b, c, st->options);
+  for (auto& s : steps) st->w_inverse.push_back(torch::inverse(s->linear->weight()));
+  return st;
+}
+
+torch::Tensor MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& control) {
+  torch::NoGradGuard no_grad;
+  auto& st = dynamic_cast<MoGlowStream&>(state);
+  const int64_t b = st.pose_hist.size(0), d = context_.pose_dim;
+  if (control.dim() != 2 || control.size(0) != b || control.size(1) != context_.control_dim)
+    throw Error("moglow step: control must be [" + std::to_string(b) + ", " + std::to_string(context_.control_dim) + "]");
+  auto ctrl_full = torch::cat({st.ctrl_hist, control.to(st.options).unsqueeze(1)}, 1);  // [B, tau+1, C]
+  auto cond = torch::cat({st.pose_hist.reshape({b, -1}), ctrl_full.reshape({b, -1})}, -1).unsqueeze(0);
+  auto z = torch::randn({1, b, d}, st.generator, torch::TensorOptions().dtype(st.options.dtype())).to(st.options.device());
+  auto x = z * st.temperature;
+  for (int64_t k = static_cast<int64_t>(steps.size()) - 1; k >= 0; --k)
+    x = steps[k]->reverse(x, cond, st.states[k], st.w_inverse[k]);
+  auto pose = x.squeeze(0);
+  st.pose_hist = torch::cat({st.pose_hist.narrow(1, 1, options_.tau - 1), pose.unsqueeze(1)}, 1);
+  st.ctrl_hist = ctrl_full.narrow(1, 1, options_.tau);
+  return pose;
+}
+
+torch::Tensor MoGlowImpl::sample(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  if (!request.control.defined() || request.control.dim() != 3 || request.control.size(2) != context_.control_dim)
+    throw Error("sample request: control must be [B, T, " + std::to_string(context_.control_dim) + "]");
+  auto stream = begin_stream(request);
+  std::vector<torch::Tensor> frames;
+  frames.reserve(request.control.size(1));
+  for (int64_t t = 0; t < request.control.size(1); ++t)
+    frames.push_back(step_stream(*stream, request.control.select(1, t)));
+  if (frames.empty())
+    return torch::zeros({request.control.size(0), 0, context_.pose_dim}, steps.front()->actnorm->bias.options());
+  return torch::stack(frames, 1);
+}
+
+std::shared_ptr<MotionModel> make_moglow(const nlohmann::json& config, const ModelContext& context) {
+  return std::make_shared<MoGlowImpl>(MoGlowOptions::from_json(config, context), context);
+}
+
+}  // namespace mosyn::nn

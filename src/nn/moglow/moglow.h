@@ -1,0 +1,183 @@
+// MoGlow (Henter, Alexanderson & Beskow 2020): an autoregressive, controllable normalising flow
+// for motion. The distribution of the next pose x_t [D] given the previous tau poses, the controls
+// of frames t-tau..t and a recurrent state is a conditional Glow of K steps:
+//
+//   x_t = z_{t,0} -> [ActNorm -> invertible linear (LU) -> affine coupling (LSTM)] x K -> z_t ~ N(0, I)
+//
+// All tensors here are standardised poses/controls (see nn/model.h). Inside the flow, sequences
+// are time-major [T', B, .] (T' = predicted frames) because the coupling LSTMs run over time.
+// The log-determinants returned below are of the normalising direction (x -> z), per frame.
+#pragma once
+
+#include <torch/nn/modules/linear.h>
+#include <torch/nn/modules/rnn.h>
+
+#include <c10/util/Optional.h>
+
+#include <memory>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "nn/model.h"
+
+namespace mosyn::nn {
+
+// Hyper-parameters. JSON keys are the field names. Presets: "default" (the shipped model) and
+// "paper" (Sec. 4.2 of the paper: K=16, two 512-unit LSTM layers, tau=10).
+struct MoGlowOptions {
+  std::string preset = "default";
+  int num_steps = 8;        // K, steps of flow
+  int hidden = 256;         // LSTM units per layer in each coupling network
+  int lstm_layers = 1;      // LSTM layers per coupling network
+  int tau = 10;             // frames of pose history (and tau+1 frames of control) conditioned on
+  double dropout = -1.0;    // data dropout probability of whole history frames in training;
+                            // < 0 = by pose form: 0.95 positions, 0.6 rotations (paper)
+  double scale_eps = 0.05;  // coupling scale s = sigmoid(h + 2) + scale_eps, in (eps, 1 + eps)
+
+  // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
+  static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
+  nlohmann::json to_json() const;
+};
+
+// (h, c) of a torch LSTM, each [layers, B, hidden].
+using LstmState = std::tuple<torch::Tensor, torch::Tensor>;
+
+// Activation normalisation: y = (x + bias) * exp(logs) per dimension; log|det| = sum(logs)
+// per frame. Data-dependent initialisation (initialize) makes the first batch's output zero-mean,
+// unit-variance per dimension; the "initialized" buffer persists it through checkpoints.
+class ActNormImpl : public torch::nn::Module {
+ public:
+  explicit ActNormImpl(int dim);
+  // x [..., D] -> y [..., D].
+  torch::Tensor forward(const torch::Tensor& x);
+  torch::Tensor reverse(const torch::Tensor& y);
+  // Scalar log|det dy/dx| of one frame.
+  torch::Tensor logdet() const;
+  bool initialized() const;
+  // Sets bias = -mean(x), logs = -log(std(x) + 1e-6) over all leading dims of x [..., D].
+  void initialize(const torch::Tensor& x);
+
+  torch::Tensor bias, logs, initialized_flag;
+};
+TORCH_MODULE(ActNorm);
+
+// Invertible linear map b = W a with W = P L U: P a fixed permutation, L unit lower-triangular,
+// U upper-triangular with diagonal sign * exp(log_s); log|det W| = sum(log_s). Initialised from
+// a random orthogonal matrix (as Glow).
+class InvLinearImpl : public torch::nn::Module {
+ public:
+  explicit InvLinearImpl(int dim);
+  torch::Tensor weight() const;  // W [D, D]
+  // a [..., D] -> a W^T.
+  torch::Tensor forward(const torch::Tensor& a);
+  // b [..., D] -> b W^-T, with w_inverse = W^-1 computed once by the caller (weight().inverse()).
+  torch::Tensor reverse(const torch::Tensor& b, const torch::Tensor& w_inverse);
+  torch::Tensor logdet() const;
+
+  torch::Tensor lower, upper, log_s;          // parameters
+  torch::Tensor perm, sign_s, lower_mask, eye;  // fixed buffers
+};
+TORCH_MODULE(InvLinear);
+
+// Affine coupling: with b = [b_lo (first floor(D/2) dims), b_hi],
+//   [shift, h] = Linear(LSTM([b_lo, cond])),  s = sigmoid(h + 2) + eps,
+//   z = [b_lo, (b_hi + shift) * s],  log|det| = sum(log s) per frame.
+// The LSTM runs over time (time-major) and its state is carried through `state` (nullopt = zeros).
+// The final Linear is zero-initialised so the coupling starts near the identity.
+class CouplingImpl : public torch::nn::Module {
+ public:
+  CouplingImpl(int dim, int cond_dim, int hidden, int layers, double scale_eps);
+  // b [T, B, D], cond [T, B, cond_dim] -> (z [T, B, D], logdet [T, B]); updates state.
+  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& b, const torch::Tensor& cond,
+                                                   c10::optional<LstmState>& state);
+  // z [T, B, D] -> b; updates state exactly as forward would on the returned b.
+  torch::Tensor reverse(const torch::Tensor& z, const torch::Tensor& cond, c10::optional<LstmState>& state);
+
+  int dim_lo() const { return d_lo_; }
+
+  torch::nn::LSTM lstm{nullptr};
+  torch::nn::Linear out{nullptr};
+
+ private:
+  std::tuple<torch::Tensor, torch::Tensor> shift_scale(const torch::Tensor& lo, const torch::Tensor& cond,
+                                                       c10::optional<LstmState>& state);
+  int dim_, d_lo_;
+  double eps_;
+};
+TORCH_MODULE(Coupling);
+
+// One step of flow: ActNorm, InvLinear, Coupling.
+class FlowStepImpl : public torch::nn::Module {
+ public:
+  FlowStepImpl(int dim, int cond_dim, int hidden, int layers, double scale_eps);
+  // x [T, B, D] -> (z [T, B, D], logdet [T, B]).
+  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x, const torch::Tensor& cond,
+                                                   c10::optional<LstmState>& state);
+  torch::Tensor reverse(const torch::Tensor& z, const torch::Tensor& cond, c10::optional<LstmState>& state,
+                        const torch::Tensor& w_inverse);
+
+  ActNorm actnorm{nullptr};
+  InvLinear linear{nullptr};
+  Coupling coupling{nullptr};
+};
+TORCH_MODULE(FlowStep);
+
+class MoGlowImpl : public MotionModel {
+ public:
+  MoGlowImpl(const MoGlowOptions& options, const ModelContext& context);
+
+  std::string family() const override { return "moglow"; }
+  nlohmann::json config() const override { return options_.to_json(); }
+  const MoGlowOptions& options() const { return options_; }
+  const ModelContext& context() const { return context_; }
+
+  // Negative log-likelihood (paper Eq. 10) of frames tau..T-1 in standardised space.
+  // "loss" = nll_dim (mean over frames, batch and dims; scale-free across D and T),
+  // "nll_frame" = nats per predicted frame (Gaussian constant included), "nll_dim" = per dim,
+  // "logdet_frame" = mean log|det| per frame. Data dropout applies when is_training().
+  // The first call in training mode initialises every ActNorm from this batch.
+  LossTerms loss(const Batch& batch) override;
+
+  torch::Tensor sample(const SampleRequest& request) override;
+  bool supports_streaming() const override { return true; }
+  std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
+  torch::Tensor step_stream(StreamState& state, const torch::Tensor& control) override;
+
+  // Result of running the normalising direction over a window.
+  struct Encoded {
+    torch::Tensor z;       // [B, T - tau, D] latents of frames tau..T-1
+    torch::Tensor logdet;  // [B, T - tau] sum of log|det| over all steps, per frame
+    std::vector<c10::optional<LstmState>> states;  // per flow step, after the last frame
+  };
+  // pose [B, T, D], control [B, T, C] standardised, T > tau. history_keep (optional [B, T] of
+  // 0/1) multiplies pose frames before they enter the history (data dropout). init_states
+  // (optional, per step) continues a previous window.
+  Encoded encode(const torch::Tensor& pose, const torch::Tensor& control,
+                 const torch::Tensor& history_keep = {},
+                 const std::vector<c10::optional<LstmState>>* init_states = nullptr);
+
+  // Per-frame log p(x_t | ...) [B, T - tau] (nats) without dropout.
+  torch::Tensor log_likelihood(const torch::Tensor& pose, const torch::Tensor& control);
+
+  // Conditioning vectors [T - tau, B, tau*D + (tau+1)*C] (time-major) for frames tau..T-1:
+  // concat of poses t-tau..t-1 (oldest first) then controls t-tau..t.
+  torch::Tensor conditioning(const torch::Tensor& pose, const torch::Tensor& control) const;
+
+  int cond_dim() const { return cond_dim_; }
+  double dropout() const { return dropout_; }
+
+  std::vector<FlowStep> steps;
+
+ private:
+  MoGlowOptions options_;
+  ModelContext context_;
+  int cond_dim_ = 0;
+  double dropout_ = 0.0;
+};
+TORCH_MODULE(MoGlow);
+
+// Factory used by create_model("moglow", ...).
+std::shared_ptr<MotionModel> make_moglow(const nlohmann::json& config, const ModelContext& context);
+
+}  // namespace mosyn::nn
