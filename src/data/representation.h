@@ -34,17 +34,50 @@ struct FeatureLayout {
   std::vector<std::string> control_names;  // {"dx_m", "dz_m", "dtheta_rad"}
 };
 
-// Layout for a skeleton in a given form.
+// Exact layouts (J joints, r = root_joint, headings and deltas from core/trajectory.h):
+//   kRotations  pose[t] = [height of joint r above the floor in metres (1),
+//                          6D of joint r's world rotation relative to its heading frame,
+//                          i.e. heading_rotation(theta_t)^-1 * R_world(r) (6),
+//                          6D local rotation of every other joint, in joint order (6 (J - 1))]
+//               pose_dim = 1 + 6 J. Joints other than the skeleton's root whose translations
+//               are animated lose that animation: decode uses their rest offsets (Bandai-Namco's
+//               non-Hips position channels equal their offsets, so nothing is lost there).
+//   kPositions  pose[t] = [world position of joint j minus the floor-projected position of
+//                          joint r, rotated by heading_rotation(theta_t)^-1, metres (3)] for
+//                          j = 0..J-1; joint r's own entry is (0, height, 0) for Y-up.
+//               pose_dim = 3 J.
+//   control[t] = (dx, dz in metres, dtheta in radians): RootDelta moving frame t-1 to frame t
+//                in the ground frame of t-1; control[0] = 0.
+// 6D vectors are rot6d_from_quat (core/rotation.h): the first two matrix columns.
+//
+// Layout for a skeleton in a given form. Names: "<joint>.height_m", "<joint>.heading_r6d<k>",
+// "<joint>.r6d<k>", "<joint>.x_m" / ".y_m" / ".z_m". Throws mosyn::Error for a root_joint out of
+// range or a zero forward_in_root (normalised otherwise).
 FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_joint,
                           const Eigen::Vector3d& forward_in_root);
 
-// Encodes a clip: pose [T, pose_dim] and control [T, control_dim], row-major float32.
+// Encodes a clip: pose [T, pose_dim] and control [T, control_dim], row-major float32, raw (not
+// standardised). Uses skeleton.meters_per_unit for metres. Throws mosyn::Error when the motion,
+// skeleton and layout disagree.
 void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout,
             std::vector<float>* pose, std::vector<float>* control);
 
 // Decodes features back to a motion on the skeleton, integrating the control from the given
 // start position (skeleton units, up coordinate ignored) and heading. For kPositions this fits
 // joint rotations by inverse kinematics.
+// Inverse kinematics (kPositions), top-down from joint 0 in world space, given the parent's
+// already-fitted world rotation:
+//   - a joint whose children (followed through zero-length bones such as CMU's LHipJoint) give
+//     two or more non-parallel directions: best-fit rotation of the rest child offsets onto the
+//     target child vectors (Kabsch / SVD); the root this way also recovers the heading;
+//   - a joint with one direction: the minimal rotation taking the rest bone direction onto the
+//     target direction. Twist about such a bone is not recoverable from positions, so it is 0;
+//   - a joint with no non-zero bone (a leaf, an end site of length 0): identity.
+// Bone lengths always come from the skeleton, not from the features; joints above the
+// trajectory joint (a static root) keep identity rotations. Results are world-position exact
+// (up to float32 rounding) for features of a motion on the same skeleton.
+// Throws mosyn::Error when the layout does not fit the skeleton. pose and control hold
+// num_frames rows of layout.pose_dim and layout.control_dim floats.
 Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose, const float* control,
               int num_frames, double fps, const Eigen::Vector3d& start_position = Eigen::Vector3d::Zero(),
               double start_heading_rad = 0.0);

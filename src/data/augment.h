@@ -1,0 +1,99 @@
+// Clip operations used while preparing a dataset: cleaning (static roots, converter T-poses,
+// joint subsets, frame rate) and augmentation (mirroring, time reversal). All work on
+// mosyn::Clip in skeleton units and never change the skeleton's units or up axis.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/skeleton.h"
+
+namespace mosyn::data {
+
+// ---- Static root -------------------------------------------------------------------------
+
+// True when joint 0 has exactly one child joint and, in every frame, identity rotation (within
+// 1e-6 rad) and a constant translation (within 1e-6 of the skeleton's size): a placeholder root
+// like Bandai-Namco's `joint_Root`, which stays at the origin while `Hips` carries the motion.
+bool has_static_root(const Clip& clip);
+
+// The clip without its static root, so its single child (Hips) becomes joint 0 with unchanged
+// world transforms (its offset and translations absorb the root's constant translation); the clip unchanged when has_static_root is false. prepare
+// applies this automatically, so Bandai-Namco datasets are rooted at Hips.
+Clip collapse_static_root(const Clip& clip);
+
+// ---- Converter T-pose ---------------------------------------------------------------------
+
+enum class TposeMode {
+  kAuto,  // drop frame 0 when looks_like_tpose says so (CMU's converter adds one to every file)
+  kOn,    // always drop frame 0
+  kOff,   // never drop anything
+};
+const char* to_string(TposeMode mode);
+// "auto", "on" or "off"; throws mosyn::Error otherwise.
+TposeMode parse_tpose_mode(const std::string& text);
+
+// True when frame 0 looks like a rest pose glued in front of the motion: its non-root local
+// rotations are close to identity (mean geodesic angle < 0.15 rad, none above 0.5 rad) and the
+// jump from frame 0 to frame 1 (mean non-root angle > 0.1 rad) is more than five times the
+// change from frame 1 to frame 2. Needs at least 3 frames (false otherwise).
+bool looks_like_tpose(const Motion& motion);
+
+// The motion without frame 0 when the mode (and, for kAuto, looks_like_tpose) says so. A motion
+// of fewer than 2 frames is returned unchanged.
+Motion remove_tpose(const Motion& motion, TposeMode mode);
+
+// ---- Joint subsets ------------------------------------------------------------------------
+
+// Joints kept by glob patterns (core/subset.h glob_match, '*' and '?'): when keep_patterns is
+// non-empty only matching joints are candidates; then joints matching any drop pattern are
+// removed. The root (joint 0) is always kept. Ascending indices.
+std::vector<int> select_joints(const Skeleton& skeleton, const std::vector<std::string>& drop_patterns,
+                               const std::vector<std::string>& keep_patterns);
+
+// The clip on select_joints(...), world transforms of kept joints unchanged (core/subset.h).
+// Throws mosyn::Error when a drop pattern would remove the root.
+Clip subset_by_patterns(const Clip& clip, const std::vector<std::string>& drop_patterns,
+                        const std::vector<std::string>& keep_patterns);
+
+// ---- Frame rate ---------------------------------------------------------------------------
+
+// The motion resampled at fps_out (e.g. CMU 120 -> 30): frame k lies at time k / fps_out, for
+// every k with k / fps_out <= duration; rotations are slerped and translations interpolated
+// linearly between the two nearest source frames. Returns a copy when fps_out equals the
+// motion's fps (within 1e-6 relative). Throws mosyn::Error for fps_out <= 0.
+Motion resample(const Motion& motion, double fps_out);
+
+// ---- Augmentation -------------------------------------------------------------------------
+
+// Frames in reverse order (a walk played backwards). Features computed from the result have
+// consistent root deltas because they are recomputed from the reversed motion.
+Motion reverse_frames(const Motion& motion);
+
+// How a skeleton mirrors: the left/right partner of every joint (core/mirror.h mirror_map), the
+// world reflection axis (core default_mirror_axis: X for Y-up) and, per joint, the axis of the
+// reflection P_j in that joint's own frame that maps its partner's child offsets onto its own.
+// P_j is the world axis for skeletons whose rest pose is symmetric (the synthetic biped, CMU),
+// but Bandai-Namco's rest frames differ per joint (body along +X, legs split along Y, arms
+// pointing along +-X), which core's mirror_motion does not handle.
+struct MirrorPlan {
+  std::vector<int> map;        // [J] partner joint, itself when unpaired
+  int world_axis = 0;          // 0, 1, 2
+  std::vector<int> joint_axes;  // [J] axis of P_j, equal for partners
+  double asymmetry = 0;        // largest |P_j offset(partner child) - offset(child)|, skeleton units
+};
+
+// Chooses each joint's axis as the one that best maps the partner's child offsets (and end
+// sites) onto the joint's own; ties (a single child on an axis, a leaf) take the parent's axis,
+// the root's ties the world axis.
+MirrorPlan plan_mirror(const Skeleton& skeleton);
+
+// The motion reflected left/right: joint j takes partner m's motion,
+//   root:      R' = S R(m) P_root,  t' = S t(m)        (S = reflection of world_axis)
+//   others:    R' = P_parent R(m) P_j,  t' = P_parent (t(m) - offset(m)) + offset(j)
+// so world positions are the reflected positions of the partners (exact for a skeleton whose
+// asymmetry is 0, otherwise up to that asymmetry). Mirroring twice gives the input back.
+Motion mirror(const Skeleton& skeleton, const Motion& motion, const MirrorPlan& plan);
+Clip mirror(const Clip& clip);
+
+}  // namespace mosyn::data

@@ -1,0 +1,209 @@
+#include "data/augment.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/kinematics.h"
+#include "core/mirror.h"
+#include "core/synthetic.h"
+#include "core/trajectory.h"
+#include "core/units.h"
+#include "data/representation.h"
+#include "io/bvh.h"
+
+namespace mosyn::data {
+namespace {
+
+double max_motion_difference(const Motion& a, const Motion& b) {
+  double worst = 0;
+  for (size_t i = 0; i < a.rotations.size(); ++i) {
+    worst = std::max(worst, a.rotations[i].angularDistance(b.rotations[i]));
+    worst = std::max(worst, (a.translations[i] - b.translations[i]).norm());
+  }
+  return worst;
+}
+
+// World positions of the mirrored motion versus the reflected positions of the partners,
+// relative to the skeleton's height.
+double mirror_position_error(const Skeleton& s, const Motion& m, const MirrorPlan& plan) {
+  const Motion mirrored = mirror(s, m, plan);
+  const WorldPoses a = forward_kinematics(s, m), b = forward_kinematics(s, mirrored);
+  double worst = 0;
+  for (int t = 0; t < m.num_frames; ++t)
+    for (int j = 0; j < s.num_joints(); ++j) {
+      Eigen::Vector3d expected = a.position(t, plan.map[j]);
+      expected[plan.world_axis] = -expected[plan.world_axis];
+      worst = std::max(worst, (b.position(t, j) - expected).norm());
+    }
+  return worst / estimate_height_units(s);
+}
+
+TEST(Augment, MirrorSyntheticIsExactAndInvolutive) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.turn_rate_rad_s = 0.7;
+  o.noise_rad = 0.05;
+  const Motion m = make_synthetic_walk(s, 50, 30.0, o);
+  const MirrorPlan plan = plan_mirror(s);
+  EXPECT_EQ(plan.world_axis, 0);
+  EXPECT_NEAR(plan.asymmetry, 0.0, 1e-9);
+  EXPECT_EQ(s.joint_names[plan.map[s.find("Hand_L")]], "Hand_R");
+  EXPECT_LT(mirror_position_error(s, m, plan), 1e-9);
+  EXPECT_LT(max_motion_difference(mirror(s, mirror(s, m, plan), plan), m), 1e-9);
+  // Same result as core's mirror_motion on a symmetric skeleton.
+  const Motion core = mirror_motion(s, m, plan.map, plan.world_axis);
+  const WorldPoses a = forward_kinematics(s, core), b = forward_kinematics(s, mirror(s, m, plan));
+  for (size_t i = 0; i < a.positions.size(); ++i) EXPECT_LT((a.positions[i] - b.positions[i]).norm(), 1e-9);
+  // A left turn becomes a right turn.
+  const Eigen::Vector3d fwd = estimate_forward_in_root(s);
+  const GroundTrajectory g0 = ground_trajectory(s, m, 0, fwd), g1 = ground_trajectory(s, mirror(s, m, plan), 0, fwd);
+  EXPECT_NEAR(g1.headings_rad.back() - g1.headings_rad.front(), -(g0.headings_rad.back() - g0.headings_rad.front()),
+              1e-9);
+}
+
+TEST(Augment, ReverseTwiceIsIdentityAndDeltasAreConsistent) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.sway_rad = 0;
+  const Motion m = make_synthetic_walk(s, 40, 30.0, o);
+  const Motion r = reverse_frames(m);
+  EXPECT_LT(max_motion_difference(reverse_frames(r), m), 1e-12);
+  EXPECT_TRUE(r.rotation(0, 3).isApprox(m.rotation(39, 3)));
+  // Played backwards the walker moves backwards: negative forward deltas.
+  const FeatureLayout layout = make_layout(s, PoseForm::kRotations, 0, estimate_forward_in_root(s));
+  std::vector<float> pose, control;
+  encode(s, r, layout, &pose, &control);
+  for (int t = 1; t < 40; ++t) EXPECT_LT(control[3 * t + 1], 0.0f);
+}
+
+TEST(Augment, ResampleHalvesFramesAndInterpolates) {
+  const Skeleton s = make_synthetic_biped();
+  const Motion m = make_synthetic_walk(s, 121, 120.0);
+  const Motion r = resample(m, 30.0);
+  EXPECT_EQ(r.num_frames, 31);
+  EXPECT_DOUBLE_EQ(r.fps, 30.0);
+  EXPECT_NO_THROW(r.validate());
+  for (int k = 0; k < r.num_frames; ++k)
+    for (int j = 0; j < s.num_joints(); ++j) {
+      EXPECT_LT(r.rotation(k, j).angularDistance(m.rotation(4 * k, j)), 1e-9);
+      EXPECT_LT((r.translation(k, j) - m.translation(4 * k, j)).norm(), 1e-9);
+    }
+  // Between frames: the midpoint of two frames.
+  const Motion two = resample(m, 240.0);
+  EXPECT_EQ(two.num_frames, 241);
+  EXPECT_LT((two.translation(1, 0) - 0.5 * (m.translation(0, 0) + m.translation(1, 0))).norm(), 1e-9);
+  EXPECT_THROW(resample(m, 0.0), Error);
+}
+
+TEST(Augment, TposeDetection) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.start_heading_rad = 0.0;
+  Motion m = make_synthetic_walk(s, 30, 30.0, o);
+  EXPECT_FALSE(looks_like_tpose(m));
+  EXPECT_EQ(remove_tpose(m, TposeMode::kAuto).num_frames, 30);
+  EXPECT_EQ(remove_tpose(m, TposeMode::kOn).num_frames, 29);
+  // Glue a rest frame in front.
+  Motion with = Motion::rest(s, 31, 30.0);
+  for (int t = 0; t < 30; ++t)
+    for (int j = 0; j < s.num_joints(); ++j) {
+      with.rotation(t + 1, j) = m.rotation(t, j);
+      with.translation(t + 1, j) = m.translation(t, j);
+    }
+  EXPECT_TRUE(looks_like_tpose(with));
+  const Motion removed = remove_tpose(with, TposeMode::kAuto);
+  EXPECT_EQ(removed.num_frames, 30);
+  EXPECT_LT(max_motion_difference(removed, m), 1e-12);
+  EXPECT_EQ(remove_tpose(with, TposeMode::kOff).num_frames, 31);
+  EXPECT_EQ(parse_tpose_mode("auto"), TposeMode::kAuto);
+  EXPECT_THROW(parse_tpose_mode("yes"), Error);
+}
+
+TEST(Augment, StaticRootCollapses) {
+  const Skeleton biped = make_synthetic_biped();
+  Clip clip;
+  clip.skeleton.joint_names.push_back("joint_Root");
+  clip.skeleton.parents.push_back(-1);
+  clip.skeleton.offsets.push_back(Eigen::Vector3d::Zero());
+  for (int j = 0; j < biped.num_joints(); ++j) {
+    clip.skeleton.joint_names.push_back(biped.joint_names[j]);
+    clip.skeleton.parents.push_back(biped.parents[j] + 1);
+    clip.skeleton.offsets.push_back(biped.offsets[j]);
+  }
+  for (EndSite e : biped.end_sites) clip.skeleton.end_sites.push_back({e.parent + 1, e.offset});
+  const Motion walk = make_synthetic_walk(biped, 20, 30.0);
+  clip.motion = Motion::rest(clip.skeleton, 20, 30.0);
+  for (int t = 0; t < 20; ++t)
+    for (int j = 0; j < biped.num_joints(); ++j) {
+      clip.motion.rotation(t, j + 1) = walk.rotation(t, j);
+      clip.motion.translation(t, j + 1) = walk.translation(t, j);
+    }
+  ASSERT_TRUE(has_static_root(clip));
+  const Clip collapsed = collapse_static_root(clip);
+  EXPECT_EQ(collapsed.skeleton.joint_names, biped.joint_names);
+  EXPECT_EQ(collapsed.skeleton.parents, biped.parents);
+  EXPECT_EQ(collapsed.skeleton.end_sites.size(), biped.end_sites.size());
+  EXPECT_LT(max_motion_difference(collapsed.motion, walk), 1e-12);
+  // A root that moves is not static.
+  Clip moving = clip;
+  moving.motion.translation(5, 0) = Eigen::Vector3d(1, 0, 0);
+  EXPECT_FALSE(has_static_root(moving));
+  EXPECT_EQ(collapse_static_root(moving).skeleton.num_joints(), clip.skeleton.num_joints());
+  EXPECT_FALSE(has_static_root(collapsed));
+}
+
+TEST(Augment, JointSubsetByGlob) {
+  Clip clip;
+  clip.skeleton = make_synthetic_biped();
+  clip.motion = make_synthetic_walk(clip.skeleton, 10, 30.0);
+  const Clip no_hands = subset_by_patterns(clip, {"Hand_*", "Toes*"}, {});
+  EXPECT_EQ(no_hands.skeleton.num_joints(), 17);
+  EXPECT_EQ(no_hands.skeleton.find("Hand_L"), -1);
+  const Clip legs = subset_by_patterns(clip, {}, {"*Leg*", "Foot_?"});
+  EXPECT_EQ(legs.skeleton.num_joints(), 7);  // Hips + 2 x (UpperLeg, LowerLeg, Foot)
+  EXPECT_EQ(legs.skeleton.joint_names[0], "Hips");
+  // World positions of kept joints are unchanged.
+  const WorldPoses a = forward_kinematics(clip.skeleton, clip.motion);
+  const WorldPoses b = forward_kinematics(legs.skeleton, legs.motion);
+  const int foot = clip.skeleton.find("Foot_R"), foot_sub = legs.skeleton.find("Foot_R");
+  for (int t = 0; t < 10; ++t) EXPECT_LT((a.position(t, foot) - b.position(t, foot_sub)).norm(), 1e-9);
+  EXPECT_THROW(subset_by_patterns(clip, {"Hip*"}, {}), Error);
+}
+
+std::string data_cache() { return MOSYN_DATA_CACHE; }
+
+TEST(RealDataAugment, BandaiMirrorAndCmuTpose) {
+  const std::string bandai =
+      data_cache() + "/bandai-namco/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk-turn-left_normal_001.bvh";
+  const std::string cmu = data_cache() + "/cmu-mocap-subset/bvh/02/02_01.bvh";
+  if (!std::filesystem::exists(bandai) || !std::filesystem::exists(cmu)) GTEST_SKIP() << "shared data not unpacked";
+  const Clip clip = collapse_static_root(io::to_clip(io::read_bvh(bandai)));
+  EXPECT_EQ(clip.skeleton.num_joints(), 21);
+  const MirrorPlan plan = plan_mirror(clip.skeleton);
+  EXPECT_EQ(clip.skeleton.joint_names[plan.map[clip.skeleton.find("Hand_L")]], "Hand_R");
+  // Bandai's offsets are symmetric to within a fraction of a millimetre.
+  EXPECT_LT(mirror_position_error(clip.skeleton, clip.motion, plan), 2e-3);
+  EXPECT_LT(max_motion_difference(mirror(clip.skeleton, mirror(clip.skeleton, clip.motion, plan), plan), clip.motion),
+            1e-9);
+  // A left turn mirrored turns right.
+  const Eigen::Vector3d fwd = estimate_forward_in_root(clip.skeleton);
+  const GroundTrajectory g0 = ground_trajectory(clip.skeleton, clip.motion, 0, fwd);
+  const GroundTrajectory g1 = ground_trajectory(clip.skeleton, mirror(clip.skeleton, clip.motion, plan), 0, fwd);
+  const double turn0 = g0.headings_rad.back() - g0.headings_rad.front();
+  const double turn1 = g1.headings_rad.back() - g1.headings_rad.front();
+  EXPECT_GT(turn0, 0.5);
+  EXPECT_NEAR(turn1, -turn0, 0.05);
+  EXPECT_FALSE(looks_like_tpose(clip.motion));
+
+  const Clip c = io::to_clip(io::read_bvh(cmu));
+  EXPECT_TRUE(looks_like_tpose(c.motion));
+  EXPECT_FALSE(looks_like_tpose(remove_tpose(c.motion, TposeMode::kAuto)));
+  const Motion at30 = resample(remove_tpose(c.motion, TposeMode::kAuto), 30.0);
+  EXPECT_NEAR(at30.fps, 30.0, 1e-12);
+  EXPECT_NEAR(at30.num_frames, (c.motion.num_frames - 1) / 4.0, 2.0);
+}
+
+}  // namespace
+}  // namespace mosyn::data
