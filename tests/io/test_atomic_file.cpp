@@ -1,0 +1,139 @@
+#include "io/atomic_file.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "core/error.h"
+
+namespace mosyn::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path make_temp_dir(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("mosyn_test_io_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+size_t count_entries(const fs::path& dir) {
+  size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) n += 1 + 0 * entry.is_regular_file();
+  return n;
+}
+
+TEST(AtomicFile, WritesAndReadsBytesExactly) {
+  const fs::path dir = make_temp_dir("atomic_rw");
+  const std::string path = (dir / "a.bin").string();
+  const std::string bytes("line1\r\nline2\n\0\xff tail", 20);
+  write_file_atomically(path, bytes);
+  EXPECT_EQ(read_file(path), bytes);
+  write_file_atomically(path, "replaced");
+  EXPECT_EQ(read_file(path), "replaced");
+  write_file_atomically(path, "");
+  EXPECT_EQ(read_file(path), "");
+  EXPECT_EQ(count_entries(dir), 1u);  // no temporary file left
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, ReadFileErrorsNameThePath) {
+  const fs::path dir = make_temp_dir("atomic_read");
+  const std::string missing = (dir / "missing.txt").string();
+  try {
+    read_file(missing);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_file(dir.string()), Error);  // a directory
+  const std::string path = (dir / "big.txt").string();
+  write_file_atomically(path, std::string(1000, 'x'));
+  EXPECT_EQ(read_file(path, 1000).size(), 1000u);
+  try {
+    read_file(path, 999);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, StreamingWriterCommitsLargeOutput) {
+  const fs::path dir = make_temp_dir("atomic_stream");
+  const std::string path = (dir / "big.bin").string();
+  std::string expected;
+  {
+    AtomicFileWriter out(path);
+    EXPECT_FALSE(fs::exists(path));  // nothing visible before commit
+    EXPECT_TRUE(fs::exists(out.temp_path()));
+    for (int i = 0; i < 300; ++i) {
+      const std::string chunk(static_cast<size_t>(1000 + i * 37), static_cast<char>('a' + i % 26));
+      out.write(chunk);
+      expected += chunk;
+    }
+    const std::string large(3u << 20, 'L');  // larger than the internal buffer
+    out.write(large.data(), large.size());
+    expected += large;
+    out.commit();
+    EXPECT_TRUE(out.temp_path().empty());
+    EXPECT_THROW(out.write("more"), Error);
+  }
+  EXPECT_EQ(read_file(path), expected);
+  EXPECT_EQ(count_entries(dir), 1u);
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, ThrowingWriterLeavesOldContentAndNoTempFile) {
+  const fs::path dir = make_temp_dir("atomic_throw");
+  const std::string path = (dir / "data.bin").string();
+  write_file_atomically(path, "old content");
+  try {
+    AtomicFileWriter out(path);
+    out.write("new content, part 1");
+    out.write(std::string(2u << 20, 'x'));  // forces bytes onto disk
+    throw std::runtime_error("writer failed midway");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(read_file(path), "old content");
+  EXPECT_EQ(count_entries(dir), 1u);
+  {
+    AtomicFileWriter out(path);
+    out.write("abandoned");
+    out.abort();
+    out.abort();
+  }
+  EXPECT_EQ(read_file(path), "old content");
+  EXPECT_EQ(count_entries(dir), 1u);
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, MovedWriterOwnsTheTemporaryFile) {
+  const fs::path dir = make_temp_dir("atomic_move");
+  const std::string path = (dir / "m.txt").string();
+  AtomicFileWriter a(path);
+  a.write("hello ");
+  AtomicFileWriter b(std::move(a));
+  b.write("world");
+  b.commit();
+  EXPECT_EQ(read_file(path), "hello world");
+  EXPECT_EQ(count_entries(dir), 1u);
+  fs::remove_all(dir);
+}
+
+TEST(AtomicFile, UnwritableDirectoryGivesAClearError) {
+  const std::string path = "/nonexistent_mosyn_dir/sub/file.txt";
+  try {
+    write_file_atomically(path, "x");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(write_file_atomically("", "x"), Error);
+}
+
+}  // namespace
+}  // namespace mosyn::io

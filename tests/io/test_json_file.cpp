@@ -1,0 +1,47 @@
+#include "io/json_file.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "io/atomic_file.h"
+
+namespace mosyn::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(JsonFile, WriteReadRoundTrip) {
+  const fs::path dir = fs::temp_directory_path() / ("mosyn_test_io_json_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string path = (dir / "a.json").string();
+  const nlohmann::json value = {{"fps", 30.0}, {"names", {"Hips", "Spine"}}, {"nested", {{"k", 1}}}};
+  write_json(path, value);
+  EXPECT_EQ(read_json(path), value);
+  const std::string text = read_file(path);
+  EXPECT_EQ(text.back(), '\n');
+  EXPECT_EQ(format_json(value, -1), value.dump() + "\n");
+  fs::remove_all(dir);
+}
+
+TEST(JsonFile, SyntaxErrorsGiveFileAndLine) {
+  try {
+    parse_json("{\n  \"a\": 1,\n  \"b\": ]\n}\n", "cfg.json");
+    ADD_FAILURE() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.file(), "cfg.json");
+    EXPECT_EQ(e.line(), 3) << e.what();
+    EXPECT_NE(std::string(e.what()).find("invalid JSON"), std::string::npos);
+  }
+  EXPECT_THROW(parse_json("", "empty.json"), ParseError);
+  EXPECT_THROW(parse_json("{\"a\": 1", "cut.json"), ParseError);
+  EXPECT_THROW(read_json("/nonexistent_mosyn/a.json"), Error);
+  EXPECT_THROW(format_json(nlohmann::json("\xff\xfe")), Error);  // invalid UTF-8
+}
+
+}  // namespace
+}  // namespace mosyn::io
