@@ -7,8 +7,9 @@
 
 namespace mosyn {
 
-// A Y-up biped of 21 joints in centimetres (meters_per_unit 0.01), about 1.85 m tall, facing +Z
-// in the rest pose with its left side at +X (arms stretched sideways, a T-pose). Left/right
+// A Y-up biped of 21 joints in centimetres (meters_per_unit 0.01), 1.66 m tall (head top),
+// facing +Z in the rest pose with its left side at +X (arms stretched sideways, a T-pose; toes'
+// end sites on the floor). Left/right
 // offsets are exact mirrors about X = 0 (names with _L/_R suffixes, as Bandai-Namco):
 //   0 Hips (root, rest offset (0, 96, 0)), 1 Spine, 2 Chest, 3 Neck, 4 Head,
 //   5 Shoulder_L, 6 UpperArm_L, 7 LowerArm_L, 8 Hand_L, 9..12 the same _R,
