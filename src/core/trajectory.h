@@ -43,7 +43,7 @@ struct GroundTrajectory {
 // rest positions go through spine joints whose rest frames may differ from the root's (in
 // Bandai-Namco's rest pose the body lies along +X, the legs' left/right axis is Y and the
 // shoulders' is Z). Falls back to the heading-0 direction (+Z for Y-up, +X for Z-up, +Y for
-// X-up) when the skeleton has no left/right pairs.
+// X-up) when the skeleton has no left/right pairs. Throws mosyn::Error for an invalid skeleton.
 // Verified on real data: Bandai-Namco gives about +Z in Hips' frame, CMU about +Z in Hips' frame,
 // and walking clips then move forward along the heading.
 Eigen::Vector3d estimate_forward_in_root(const Skeleton& skeleton);

@@ -23,8 +23,8 @@ double estimate_height_units(const Skeleton& skeleton);
 
 // The candidate unit (metres 1, centimetres 0.01, millimetres 0.001, inches 0.0254, feet 0.3048,
 // CMU units 0.056444) that puts the estimated height closest to a 1.7 m human in log scale:
-// neighbouring candidates differ by at least x2.2, so a human-sized skeleton of 1.1..2.6 m in any
-// of them is recognised. Centimetres for Bandai-Namco, CMU units for the CMU 31-joint skeleton.
+// neighbouring candidates differ by at least x2.2, so a human-sized skeleton of about 1.15..2.5 m
+// (as estimated) in any of them is recognised. Centimetres for Bandai-Namco, CMU units for the CMU 31-joint skeleton.
 // Returns metres (1.0) for a skeleton with no bones.
 UnitsGuess guess_units(const Skeleton& skeleton);
 

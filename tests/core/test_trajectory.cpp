@@ -281,6 +281,41 @@ TEST(Trajectory, RealDataBandaiWalkBackGoesBackward) {
   EXPECT_LT(w.mean_forward_per_s, -30.0);
 }
 
+// Independent check of the hip-based heading: the facing of the shoulder line, (left - right) x up,
+// in world space (mean absolute difference; sign or axis mistakes would give pi/2 or pi).
+double mean_shoulder_disagreement(const Clip& clip, int root_joint, const char* left, const char* right) {
+  const Skeleton& s = clip.skeleton;
+  const GroundTrajectory g = ground_trajectory(s, clip.motion, root_joint, estimate_forward_in_root(s));
+  const WorldPoses w = forward_kinematics(s, clip.motion);
+  const int l = s.find(left), r = s.find(right);
+  double sum = 0;
+  for (int t = 0; t < clip.motion.num_frames; ++t) {
+    const Eigen::Vector3d across = w.position(t, l) - w.position(t, r);
+    sum += std::abs(wrap(g.headings_rad[t] - heading_of(s, across.cross(Eigen::Vector3d::UnitY()))));
+  }
+  return sum / clip.motion.num_frames;
+}
+
+TEST(Trajectory, RealDataHeadingAgreesWithShoulderLine) {
+  // Bandai's walk-left/right clips walk forward towards the left/right of the room: the whole
+  // body faces the direction of travel (+X), which both estimates must agree on.
+  for (const char* file : {"Bandai-Namco-Research-Motiondataset-1/data/dataset-1_walk-left_normal_001.bvh",
+                           "Bandai-Namco-Research-Motiondataset-1/data/dataset-1_walk-right_normal_001.bvh",
+                           "Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk-turn-right_normal_001.bvh",
+                           "Bandai-Namco-Research-Motiondataset-2/data/dataset-2_run_normal_001.bvh"}) {
+    const std::string path = testing::data_file(std::string("bandai-namco/") + file);
+    if (path.empty()) GTEST_SKIP() << "Bandai-Namco data not unpacked";
+    const Clip clip = testing::read_bvh_for_tests(path);
+    EXPECT_LT(mean_shoulder_disagreement(clip, 1, "Shoulder_L", "Shoulder_R"), 0.4) << file;
+    const WalkStats w = walk_stats(clip, 1, 0);
+    EXPECT_GT(w.mean_forward_per_s, 50.0) << file;
+    EXPECT_LT(w.mean_abs_heading_error_rad, 0.3) << file;
+  }
+  const std::string cmu = testing::data_file("cmu-mocap-subset/bvh/02/02_01.bvh");
+  if (cmu.empty()) GTEST_SKIP() << "CMU data not unpacked";
+  EXPECT_LT(mean_shoulder_disagreement(testing::read_bvh_for_tests(cmu), 0, "LeftArm", "RightArm"), 0.4);
+}
+
 TEST(Trajectory, RealDataBandaiTurnLeftTurnsCounterClockwise) {
   const std::string path = testing::data_file(
       "bandai-namco/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk-turn-left_normal_001.bvh");
