@@ -64,7 +64,64 @@ bool parse_channel_name(std::string_view name, BvhChannel* channel) {
 
 // Parses a whole token as a finite double; accepts a leading '+', which from_chars does not.
 enum class NumberStatus { kOk, kNotANumber, kOutOfRange, kNotFinite };
+
+// Clinger's fast path for plain decimals such as "-6.77137" or "5.1072e-06": when the digits form
+// an integer below 2^53 and the power of ten is at most 22, mantissa * 10^e (or / 10^-e) is a
+// single correctly rounded operation on exact doubles, i.e. the same result as from_chars.
+// Returns false (caller falls back to from_chars) for anything else.
+bool parse_double_fast(const char* p, const char* end, double* value) {
+  static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                      1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  bool negative = false;
+  if (p != end && (*p == '-' || *p == '+')) {
+    negative = *p == '-';
+    ++p;
+  }
+  uint64_t mantissa = 0;
+  int digits = 0;
+  int exponent = 0;
+  bool any_digit = false;
+  while (p != end && static_cast<unsigned>(*p - '0') < 10) {
+    mantissa = mantissa * 10 + static_cast<unsigned>(*p - '0');
+    digits += mantissa != 0;
+    any_digit = true;
+    ++p;
+  }
+  if (p != end && *p == '.') {
+    ++p;
+    while (p != end && static_cast<unsigned>(*p - '0') < 10) {
+      mantissa = mantissa * 10 + static_cast<unsigned>(*p - '0');
+      digits += mantissa != 0;
+      --exponent;
+      any_digit = true;
+      ++p;
+    }
+  }
+  if (!any_digit || digits > 15) return false;  // 15 digits < 2^53: exact
+  if (p != end && (*p == 'e' || *p == 'E')) {
+    ++p;
+    bool exp_negative = false;
+    if (p != end && (*p == '-' || *p == '+')) {
+      exp_negative = *p == '-';
+      ++p;
+    }
+    if (p == end || static_cast<unsigned>(*p - '0') >= 10) return false;
+    int e = 0;
+    while (p != end && static_cast<unsigned>(*p - '0') < 10 && e < 1000) {
+      e = e * 10 + (*p - '0');
+      ++p;
+    }
+    exponent += exp_negative ? -e : e;
+  }
+  if (p != end || exponent < -22 || exponent > 22) return false;
+  double v = static_cast<double>(mantissa);
+  v = exponent < 0 ? v / kPow10[-exponent] : v * kPow10[exponent];
+  *value = negative ? -v : v;
+  return true;
+}
+
 NumberStatus parse_double(const char* begin, const char* end, double* value) {
+  if (parse_double_fast(begin, end, value)) return NumberStatus::kOk;
   const char* p = begin;
   if (p != end && *p == '+') ++p;
   if (p == end || *p == '+' || (*p == '-' && p != begin)) return NumberStatus::kNotANumber;
@@ -718,9 +775,17 @@ BvhFile from_clip(const Clip& clip, const BvhFile* layout_template) {
       const RotationPlan& plan = plans[static_cast<size_t>(j)];
       Eigen::Vector3d angles = Eigen::Vector3d::Zero();  // radians, in plan.order
       if (plan.num_rotation_channels > 0) {
-        angles = euler_from_quat(m.rotation(t, j).normalized(), plan.order);
+        const Eigen::Quaterniond q = m.rotation(t, j).normalized();
+        angles = euler_from_quat(q, plan.order);
         if (t > 0) {
           const Eigen::Vector3d& prev = previous[static_cast<size_t>(j)];
+          if (plan.num_rotation_channels == 3 && std::abs(std::sin(angles[1])) >= 1.0 - 1e-12) {
+            // Gimbal lock: only a combination of the outer angles is determined. Keep the last
+            // angle from the previous frame and solve for the first, instead of zeroing it.
+            const int last_axis = euler_axis(plan.order, 2);
+            angles = euler_from_quat(q * quat_about_axis(last_axis, -prev[2]), plan.order);
+            angles[2] = prev[2];
+          }
           // The other Euler triple of the same rotation; only exact when all three angles are kept.
           Eigen::Vector3d candidates[2] = {angles, Eigen::Vector3d(angles[0] + kPi, kPi - angles[1], angles[2] + kPi)};
           const int num_candidates = plan.num_rotation_channels == 3 ? 2 : 1;

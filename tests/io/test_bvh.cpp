@@ -189,6 +189,33 @@ TEST(Bvh, AcceptsFramesWrappedOverLines) {
   EXPECT_EQ(bvh.values, parse_bvh(kSmall, "small.bvh").values);
 }
 
+// The motion scanner must give exactly strtod's correctly rounded doubles for every spelling.
+TEST(Bvh, MotionNumbersAreParsedExactly) {
+  std::mt19937_64 rng(99);
+  std::vector<std::string> tokens = {"0", "-0", "0.0", ".5", "-.5", "+.5", "1.", "5.1072e-06", "-1.3905E-06", "1e22",
+                                     "1e23", "1e-22", "1e-23", "123456789012345", "1234567890123456789", "9007199254740993",
+                                     "0.1", "0.30000000000000004", "1e300", "-2.2250738585072014e-308", "4.9e-324",
+                                     "0.000000000000000000000000001", "1234.5678e-3", "+7e+2"};
+  for (int i = 0; i < 3000; ++i) {
+    const double v = std::ldexp(static_cast<double>(rng() >> 11) * (rng() % 2 ? 1 : -1), static_cast<int>(rng() % 80) - 60);
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), "%.*g", 1 + static_cast<int>(rng() % 17), v);
+    tokens.push_back(buffer);
+    std::snprintf(buffer, sizeof(buffer), "%.*f", static_cast<int>(rng() % 12), v);
+    tokens.push_back(buffer);
+  }
+  std::string text = "HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: " +
+                     std::to_string(tokens.size()) + "\nFrame Time: 0.1\n";
+  for (const std::string& t : tokens) text += t + "\n";
+  const BvhFile bvh = parse_bvh(text, "numbers.bvh");
+  ASSERT_EQ(bvh.values.size(), tokens.size());
+  for (size_t i = 0; i < tokens.size(); ++i) {
+    const double expected = std::strtod(tokens[i].c_str(), nullptr);
+    EXPECT_EQ(bvh.values[i], expected) << tokens[i];
+    EXPECT_EQ(std::signbit(bvh.values[i]), std::signbit(expected)) << tokens[i];
+  }
+}
+
 TEST(Bvh, ZeroFramesIsAValidEmptyMotion) {
   const BvhFile bvh = parse_bvh(small_header(0), "empty_motion.bvh");
   EXPECT_EQ(bvh.num_frames, 0);
@@ -583,6 +610,25 @@ TEST(Bvh, FromClipKeepsEulerAnglesContinuous) {
   EXPECT_NEAR(std::abs(bvh.values[static_cast<size_t>(frames - 1) * 3] - bvh.values[0]), 720.0, 1.0);
   const Clip back = to_clip(bvh);
   for (int t = 0; t < frames; ++t) EXPECT_LT(geodesic_angle(back.motion.rotation(t, 0), clip.motion.rotation(t, 0)), 1e-7);
+}
+
+TEST(Bvh, FromClipStaysContinuousThroughGimbalLock) {
+  BvhFile layout = parse_bvh("HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n}\n"
+                             "MOTION\nFrames: 0\nFrame Time: 0.1\n",
+                             "layout.bvh");
+  Clip clip;
+  clip.skeleton = layout.skeleton;
+  const int frames = 11;
+  clip.motion = Motion::rest(clip.skeleton, frames, 30);
+  for (int t = 0; t < frames; ++t)  // the middle angle is exactly 90 degrees at t = 5
+    clip.motion.rotation(t, 0) = quat_from_euler(Eigen::Vector3d(30 + t, 80 + 2 * t, 20 + t) * kPi / 180, EulerOrder::kZYX);
+  const BvhFile bvh = from_clip(clip, &layout);
+  for (int t = 1; t < frames; ++t)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_LT(std::abs(bvh.values[static_cast<size_t>(t) * 3 + c] - bvh.values[static_cast<size_t>(t - 1) * 3 + c]), 5.0)
+          << "frame " << t << " channel " << c;
+  const Clip back = to_clip(bvh);
+  for (int t = 0; t < frames; ++t) EXPECT_LT(geodesic_angle(back.motion.rotation(t, 0), clip.motion.rotation(t, 0)), 1e-6) << t;
 }
 
 // --- Real data --------------------------------------------------------------------------------
