@@ -67,19 +67,16 @@ void find_partners(const Skeleton& skeleton, std::vector<int>& partner, std::vec
       }
     }
   }
-  // Keep only mutual pairs with opposite sides.
+  // Keep only mutual pairs with opposite sides; the test is symmetric in j and its candidate, so
+  // the result is an involution.
+  const std::vector<int> candidate = partner, candidate_side = side;
   for (int j = 0; j < n; ++j) {
-    const int k = partner[j];
-    if (k != j && (partner[k] != j || side[k] != -side[j])) {
+    const int k = candidate[j];
+    if (k != j && (candidate[k] != j || candidate_side[k] != -candidate_side[j])) {
       partner[j] = j;
       side[j] = 0;
     }
   }
-  for (int j = 0; j < n; ++j)
-    if (partner[j] == j || partner[partner[j]] != j) {
-      partner[j] = j;
-      side[j] = 0;
-    }
 }
 
 Eigen::Vector3d reflect(const Eigen::Vector3d& v, int axis) {

@@ -9,15 +9,14 @@
 
 namespace mosyn {
 
-// Side of a joint name: +1 left, -1 right, 0 neither. Recognised markers (case as written):
-// prefixes "Left"/"Right", "left"/"right", "LEFT"/"RIGHT", "L"/"R", "l"/"r"; suffixes of the same
-// words and letters (so "_L", ".L", "_left", "HandLeft"); and the tokens " L ", "_L_", ".L." inside
-// a name ("Bip01 L Thigh"). A single-letter marker only counts when the name with the letter
-// swapped exists in the skeleton, so this is only meaningful through mirror_map / joint_sides.
-//
 // Partner of every joint [J] found from names: the joint whose name differs only by a left/right
-// marker (LeftArm/RightArm, LHipJoint/RHipJoint, Hand_L/Hand_R, left_foot/right_foot, Hand.L/Hand.R).
-// Joints without a partner map to themselves. The map is an involution: map[map[j]] == j.
+// marker. Recognised markers (case as written): prefixes and suffixes "Left"/"Right",
+// "left"/"right", "LEFT"/"RIGHT" (LeftArm, HandLeft, left_foot), the tokens " L ", "_L_", ".L."
+// and their lowercase forms inside a name ("Bip01 L Thigh"), and a single letter "L"/"R" or
+// "l"/"r" as prefix or suffix (LHipJoint, Hand_L, Hand.L, l_eye). Rules are tried in that order
+// and the first whose swapped name exists in the skeleton wins, so "LowerBack" stays unpaired
+// unless a "RowerBack" exists. Only mutual pairs with opposite sides count; joints without a
+// partner map to themselves. The map is an involution: map[map[j]] == j.
 std::vector<int> mirror_map(const Skeleton& skeleton);
 
 // Side of every joint [J]: +1 for the left joint of a pair found by mirror_map, -1 for the right

@@ -55,7 +55,7 @@ Eigen::Vector3d estimate_forward_in_root(const Skeleton& skeleton) {
   // parent is unpaired, of least depth. Shoulders are deliberately not used: their rest positions
   // depend on spine joints whose rest frames need not match the root's (Bandai-Namco).
   int left = -1;
-  for (int j = 0; j < n; ++j)
+  for (int j = 1; j < n; ++j)
     if (side[j] > 0 && side[skeleton.parents[j]] == 0 && (left < 0 || depth[j] < depth[left])) left = j;
   if (left < 0) return fallback;
   const int pelvis = skeleton.parents[left];
