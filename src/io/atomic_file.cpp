@@ -145,6 +145,14 @@ void AtomicFileWriter::commit() {
     throw Error(path_ + ": cannot replace the file: " + errno_text(err));
   }
   temp_path_.clear();
+  // Make the rename itself durable; failure here does not undo the (already visible) write.
+  const size_t slash = path_.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path_.substr(0, slash));
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {
+    ::fsync(dir_fd);
+    ::close(dir_fd);
+  }
 }
 
 void AtomicFileWriter::abort() noexcept {

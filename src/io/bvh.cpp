@@ -522,6 +522,17 @@ void check_consistent(const BvhFile& bvh) {
                 " frames x " + std::to_string(bvh.num_channels()) + " channels needs " + std::to_string(expected));
 }
 
+// A name parse_bvh would read back unchanged: not empty, no braces, no whitespace but single
+// interior spaces.
+bool is_writable_name(const std::string& name) {
+  if (name.empty() || name.front() == ' ' || name.back() == ' ') return false;
+  for (size_t i = 0; i < name.size(); ++i) {
+    const char c = name[i];
+    if (c == '{' || c == '}' || (is_space(c) && c != ' ') || (c == ' ' && name[i - 1] == ' ')) return false;
+  }
+  return true;
+}
+
 void append_number(std::string* out, double value, int significant_digits) {
   char buffer[64];
   const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value, std::chars_format::general, significant_digits);
@@ -639,6 +650,9 @@ std::string format_bvh(const BvhFile& bvh, int significant_digits) {
     if (parent >= 0 && open.empty())
       throw Error("format_bvh: joints are not in depth-first pre-order (joint '" + sk.joint_names[static_cast<size_t>(j)] +
                   "' does not follow its parent's subtree)");
+    if (!is_writable_name(sk.joint_names[static_cast<size_t>(j)]))
+      throw Error("format_bvh: joint name '" + sk.joint_names[static_cast<size_t>(j)] +
+                  "' cannot be written to BVH (empty, braces, or whitespace other than single spaces)");
     const int depth = static_cast<int>(open.size());
     append_indent(&out, depth);
     out += parent < 0 ? "ROOT " : "JOINT ";

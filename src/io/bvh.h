@@ -77,7 +77,8 @@ BvhFile read_bvh(const std::string& path);
 // exact); the frame time is written exactly. Joints must be in depth-first pre-order (each
 // joint's subtree follows it contiguously, as parse_bvh produces); a joint's End Sites are written
 // before its child joints. Throws mosyn::Error when the arrays disagree in size, a value is not
-// finite, or the joint order is not a pre-order.
+// finite, the joint order is not a pre-order, or a joint name would not read back (empty, braces,
+// or whitespace other than single interior spaces).
 std::string format_bvh(const BvhFile& bvh, int significant_digits = 9);
 
 // format_bvh written atomically (io/atomic_file.h).

@@ -471,6 +471,14 @@ TEST(Bvh, FormatRejectsInconsistentFiles) {
   reordered.skeleton.parents = {-1, 0, 0, 1};
   reordered.skeleton.end_sites.clear();
   EXPECT_THROW(format_bvh(reordered), Error);
+  for (const char* name : {"", "a{b", "a}", "two\nlines", " lead", "trail ", "double  space", "tab\there"}) {
+    BvhFile renamed = bvh;
+    renamed.skeleton.joint_names[1] = name;
+    EXPECT_THROW(format_bvh(renamed), Error) << name;
+  }
+  BvhFile spaced = bvh;
+  spaced.skeleton.joint_names[1] = "Left Upper Arm";
+  EXPECT_EQ(parse_bvh(format_bvh(spaced), "spaced.bvh").skeleton.joint_names[1], "Left Upper Arm");
 }
 
 // --- Conversion to and from clips -------------------------------------------------------------
