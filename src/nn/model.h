@@ -23,17 +23,9 @@
 #include <string>
 #include <vector>
 
-namespace mosyn::nn {
+#include "nn/context.h"
 
-// What a model needs to know about the data it is built for.
-struct ModelContext {
-  int pose_dim = 0;         // D
-  int control_dim = 3;      // C
-  int num_content = 0;      // size of the content-label vocabulary (0 = unlabelled)
-  int num_style = 0;        // size of the style-label vocabulary (0 = unlabelled)
-  double fps = 30.0;        // frame rate of the data (frames per second)
-  std::string pose_form = "rotations";  // "rotations" or "positions" (data::PoseForm), for defaults
-};
+namespace mosyn::nn {
 
 // One training or validation mini-batch, standardised.
 struct Batch {

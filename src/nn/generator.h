@@ -1,0 +1,64 @@
+// Real-time motion generation: one frame per control input, no algorithmic latency.
+// Holds everything a stream needs (model, LSTM states, pose history, root pose) for one
+// character or a batch of characters stepping together. Works in raw feature units.
+// No LibTorch in this header.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nn/run.h"
+
+namespace mosyn::nn {
+
+struct GeneratorOptions {
+  std::string checkpoint = "checkpoint.pt";  // file in the run dir
+  std::string device = "cpu";
+  int threads = 0;          // LibTorch CPU threads; 0 = all cores
+  int batch = 1;            // characters stepping together
+  std::uint64_t seed = 0;   // noise seed: same seed + controls = same motion
+  double temperature = 1.0; // latent standard deviation multiplier
+  std::vector<float> prefix_pose;     // optional raw [P, D] (shared by all characters)
+  std::vector<float> prefix_control;  // optional raw [P, C]
+};
+
+// Floor position (skeleton units, up coordinate 0) and heading (radians) of a character's root.
+struct RootPose {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double heading_rad = 0.0;
+};
+
+class Generator {
+ public:
+  // Loads run_dir (load_run) and starts a stream. Throws mosyn::Error when the run cannot be
+  // loaded or its family cannot generate frame by frame.
+  explicit Generator(const std::string& run_dir, const GeneratorOptions& options = {});
+  Generator(LoadedRun run, const GeneratorOptions& options);
+  ~Generator();
+  Generator(Generator&&) noexcept;
+  Generator& operator=(Generator&&) noexcept;
+
+  // Advances every character by one frame. control: raw [B, C] row-major (dx, dz metres,
+  // dtheta radians of the new frame relative to the previous one). Returns raw pose [B, D].
+  std::vector<float> step(const std::vector<float>& control);
+
+  // Restarts the stream (states, history, root poses) with a new seed.
+  void reset(std::uint64_t seed);
+
+  int batch() const;
+  int pose_dim() const;
+  int control_dim() const;
+  int frames() const;  // frames generated since the start / reset
+  // Root pose of character b after the frames so far, integrated from the controls.
+  const RootPose& root(int b) const;
+  const LoadedRun& run() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mosyn::nn

@@ -1,0 +1,116 @@
+#include "nn/run.h"
+
+#include <torch/serialize.h>
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "io/atomic_file.h"
+#include "io/json_file.h"
+#include "nn/checkpoint.h"
+#include "nn/run_info.h"
+
+namespace mosyn::nn {
+
+namespace {
+constexpr const char* kCheckpointFormat = "mosyn-checkpoint-1";
+}
+
+void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
+                     const CheckpointState& state) {
+  torch::serialize::OutputArchive archive;
+  archive.write("format", c10::IValue(std::string(kCheckpointFormat)));
+  archive.write("family", c10::IValue(model.family()));
+  archive.write("step", c10::IValue(static_cast<int64_t>(state.step)));
+  archive.write("best_val_loss", c10::IValue(state.best_val_loss));
+  archive.write("data_rng", c10::IValue(state.data_rng));
+  if (state.torch_rng.defined()) archive.write("torch_rng", state.torch_rng, /*is_buffer=*/true);
+  torch::serialize::OutputArchive model_archive;
+  model.save(model_archive);
+  archive.write("model", model_archive);
+  if (optimizer) {
+    torch::serialize::OutputArchive opt_archive;
+    optimizer->save(opt_archive);
+    archive.write("optimizer", opt_archive);
+  }
+  std::string bytes;
+  archive.save_to([&bytes](const void* data, size_t n) {
+    bytes.append(static_cast<const char*>(data), n);
+    return n;
+  });
+  io::write_file_atomically(path, bytes);
+}
+
+CheckpointState load_checkpoint(const std::string& path, MotionModel& model, torch::optim::Optimizer* optimizer,
+                                const torch::Device& device) {
+  const std::string bytes = io::read_file(path);
+  CheckpointState state;
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(bytes.data(), bytes.size(), device);
+    c10::IValue v;
+    if (!archive.try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)
+      throw Error("not a mosyn checkpoint");
+    if (!archive.try_read("family", v) || v.toStringRef() != model.family())
+      throw Error("checkpoint is of family '" + (v.isString() ? v.toStringRef() : std::string("?")) +
+                  "', expected '" + model.family() + "'");
+    archive.read("step", v);
+    state.step = static_cast<int>(v.toInt());
+    archive.read("best_val_loss", v);
+    state.best_val_loss = v.toDouble();
+    archive.read("data_rng", v);
+    state.data_rng = v.toStringRef();
+    torch::Tensor rng;
+    if (archive.try_read("torch_rng", rng, /*is_buffer=*/true)) state.torch_rng = rng.to(torch::kCPU);
+    torch::serialize::InputArchive model_archive;
+    archive.read("model", model_archive);
+    model.load(model_archive);
+    if (optimizer) {
+      torch::serialize::InputArchive opt_archive;
+      if (!archive.try_read("optimizer", opt_archive)) throw Error("no optimizer state");
+      optimizer->load(opt_archive);
+    }
+  } catch (const Error& e) {
+    throw Error(path + ": corrupt or incompatible checkpoint: " + e.what());
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
+    throw Error(path + ": corrupt or truncated checkpoint (" + msg + ")");
+  }
+  return state;
+}
+
+LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(run_dir)) throw Error(run_dir + ": run directory does not exist");
+  if (options.threads >= 0) set_num_threads(options.threads);
+  LoadedRun run;
+  run.run_dir = run_dir;
+  const std::string config_path = (fs::path(run_dir) / "config.json").string();
+  const std::string stats_path = (fs::path(run_dir) / "stats.json").string();
+  run.config = io::read_json(config_path);
+  try {
+    if (run.config.at("format").get<std::string>() != "mosyn-run-1") throw Error("unknown format");
+    run.family = run.config.at("family").get<std::string>();
+  } catch (const std::exception& e) {
+    throw Error(config_path + ": not a mosyn run configuration (" + e.what() + ")");
+  }
+  if (!run.config.contains("context") || !run.config.contains("dataset") || !run.config.contains("model"))
+    throw Error(config_path + ": missing 'context', 'dataset' or 'model'");
+  run.context = context_from_json(run.config["context"], config_path);
+  run.dataset = data::info_from_json(run.config["dataset"], config_path);
+  run.stats = data::stats_from_json(io::read_json(stats_path), stats_path);
+  if (static_cast<int>(run.stats.pose_mean.size()) != run.context.pose_dim ||
+      static_cast<int>(run.stats.control_mean.size()) != run.context.control_dim)
+    throw Error(stats_path + ": statistics do not match the model's dimensions");
+  const torch::Device device = parse_device(options.device);
+  run.model = create_model(run.family, run.config["model"], run.context);
+  run.model->to(device);
+  const std::string ckpt = (fs::path(run_dir) / options.checkpoint).string();
+  if (!fs::exists(ckpt)) throw Error(ckpt + ": checkpoint not found");
+  run.step = load_checkpoint(ckpt, *run.model, nullptr, device).step;
+  run.model->eval();
+  return run;
+}
+
+}  // namespace mosyn::nn

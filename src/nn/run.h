@@ -1,0 +1,37 @@
+// Loading a trained run directory (see nn/training/train.h for its files) with no architecture
+// flags: family, model config and data description all come from config.json.
+#pragma once
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "data/dataset.h"
+#include "nn/context.h"
+
+namespace mosyn::nn {
+
+class MotionModel;
+
+struct LoadOptions {
+  std::string checkpoint = "checkpoint.pt";  // file inside the run dir, e.g. "best.pt"
+  std::string device = "cpu";
+  int threads = 0;  // LibTorch CPU threads; 0 = all cores, < 0 = leave as is
+};
+
+struct LoadedRun {
+  std::string run_dir;
+  std::string family;
+  nlohmann::json config;            // the whole config.json
+  ModelContext context;
+  data::DatasetInfo dataset;        // skeleton, layout, fps, labels of the training data
+  data::DatasetStats stats;         // standardisation statistics
+  std::shared_ptr<MotionModel> model;  // in eval mode, on the requested device
+  int step = 0;                     // optimiser steps of the loaded checkpoint
+};
+
+// Throws mosyn::Error naming the file when config.json, stats.json or the checkpoint is missing,
+// truncated, corrupt or does not match the config.
+LoadedRun load_run(const std::string& run_dir, const LoadOptions& options = {});
+
+}  // namespace mosyn::nn

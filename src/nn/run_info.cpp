@@ -1,0 +1,38 @@
+#include "nn/run_info.h"
+
+#include "core/error.h"
+
+namespace mosyn::nn {
+
+nlohmann::json context_to_json(const ModelContext& c) {
+  return {{"pose_dim", c.pose_dim},       {"control_dim", c.control_dim}, {"num_content", c.num_content},
+          {"num_style", c.num_style},     {"fps", c.fps},                 {"pose_form", c.pose_form}};
+}
+
+ModelContext context_from_json(const nlohmann::json& j, const std::string& what) {
+  try {
+    ModelContext c;
+    c.pose_dim = j.at("pose_dim").get<int>();
+    c.control_dim = j.at("control_dim").get<int>();
+    c.num_content = j.at("num_content").get<int>();
+    c.num_style = j.at("num_style").get<int>();
+    c.fps = j.at("fps").get<double>();
+    c.pose_form = j.at("pose_form").get<std::string>();
+    return c;
+  } catch (const std::exception& e) {
+    throw Error(what + ": malformed model context: " + e.what());
+  }
+}
+
+ModelContext context_for(const data::DatasetInfo& info) {
+  ModelContext c;
+  c.pose_dim = info.layout.pose_dim;
+  c.control_dim = info.layout.control_dim;
+  c.num_content = static_cast<int>(info.content_labels.size());
+  c.num_style = static_cast<int>(info.style_labels.size());
+  c.fps = info.fps;
+  c.pose_form = info.layout.form == data::PoseForm::kRotations ? "rotations" : "positions";
+  return c;
+}
+
+}  // namespace mosyn::nn

@@ -1,0 +1,170 @@
+// Offline sampling (sample_motions) and the real-time Generator: both convert raw <-> standardised
+// features with the run's statistics around MotionModel::sample / begin_stream / step_stream.
+#include "nn/sampling.h"
+
+#include <torch/types.h>
+#include <torch/utils.h>
+
+#include "core/error.h"
+#include "core/trajectory.h"
+#include "nn/generator.h"
+#include "nn/model.h"
+
+namespace mosyn::nn {
+
+namespace {
+
+struct Standardiser {
+  torch::Tensor pose_mean, pose_std, ctrl_mean, ctrl_std;
+  explicit Standardiser(const data::DatasetStats& s)
+      : pose_mean(torch::tensor(s.pose_mean)),
+        pose_std(torch::tensor(s.pose_std)),
+        ctrl_mean(torch::tensor(s.control_mean)),
+        ctrl_std(torch::tensor(s.control_std)) {}
+  torch::Tensor control(const torch::Tensor& raw) const { return (raw - ctrl_mean) / ctrl_std; }
+  torch::Tensor pose(const torch::Tensor& raw) const { return (raw - pose_mean) / pose_std; }
+  torch::Tensor unpose(const torch::Tensor& std) const { return std * pose_std + pose_mean; }
+};
+
+torch::Tensor from_vector(const std::vector<float>& v, int64_t rows, int64_t cols) {
+  return torch::from_blob(const_cast<float*>(v.data()), {rows, cols}, torch::kFloat32).clone();
+}
+
+torch::Device model_device(MotionModel& m) {
+  auto params = m.parameters();
+  return params.empty() ? torch::Device(torch::kCPU) : params.front().device();
+}
+
+// Fills the prefix and label fields of a request for batch size b.
+void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& st, int64_t b,
+                  const std::vector<float>& prefix_pose, const std::vector<float>& prefix_control, int content,
+                  int style) {
+  const int64_t d = run.context.pose_dim, c = run.context.control_dim;
+  if (!prefix_pose.empty()) {
+    if (prefix_pose.size() % d != 0) throw Error("prefix pose is not [P, " + std::to_string(d) + "]");
+    const int64_t p = static_cast<int64_t>(prefix_pose.size()) / d;
+    req.prefix_pose = st.pose(from_vector(prefix_pose, p, d)).unsqueeze(0).expand({b, p, d}).contiguous();
+    if (!prefix_control.empty()) {
+      if (prefix_control.size() != static_cast<size_t>(p * c))
+        throw Error("prefix control must be [" + std::to_string(p) + ", " + std::to_string(c) + "]");
+      req.prefix_control = st.control(from_vector(prefix_control, p, c)).unsqueeze(0).expand({b, p, c}).contiguous();
+    }
+  }
+  req.content = torch::full({b}, static_cast<int64_t>(content), torch::kInt64);
+  req.style = torch::full({b}, static_cast<int64_t>(style), torch::kInt64);
+  req.batch = static_cast<int>(b);
+}
+
+}  // namespace
+
+std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
+                                               std::uint64_t seed, double temperature, const SampleExtras& extras) {
+  if (!run.model) throw Error("sample_motions: run has no model");
+  if (n < 1) throw Error("sample_motions: n must be >= 1");
+  const int64_t d = run.context.pose_dim, c = run.context.control_dim;
+  if (control.empty() || control.size() % c != 0)
+    throw Error("sample_motions: control is not [T, " + std::to_string(c) + "]");
+  const int64_t t = static_cast<int64_t>(control.size()) / c;
+  Standardiser st(run.stats);
+  auto& model = *run.model;
+  const auto device = model_device(model);
+  SampleRequest req;
+  req.control = st.control(from_vector(control, t, c)).unsqueeze(0).expand({n, t, c}).contiguous().to(device);
+  fill_request(req, run, st, n, extras.prefix_pose, extras.prefix_control, extras.content, extras.style);
+  if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
+  if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
+  req.content = req.content.to(device);
+  req.style = req.style.to(device);
+  req.temperature = temperature;
+  req.seed = seed;
+  model.eval();
+  auto out = st.unpose(model.sample(req).to(torch::kCPU, torch::kFloat32)).contiguous();
+  std::vector<std::vector<float>> result(n);
+  for (int i = 0; i < n; ++i) {
+    const float* p = out[i].data_ptr<float>();
+    result[i].assign(p, p + t * d);
+  }
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Generator
+
+struct Generator::Impl {
+  LoadedRun run;
+  GeneratorOptions options;
+  Standardiser st;
+  std::unique_ptr<StreamState> stream;
+  std::vector<RootPose> roots;
+  int frames = 0;
+  torch::Device device{torch::kCPU};
+
+  Impl(LoadedRun r, const GeneratorOptions& o) : run(std::move(r)), options(o), st(run.stats) {
+    if (!run.model) throw Error("Generator: run has no model");
+    if (!run.model->supports_streaming())
+      throw Error("Generator: model family '" + run.family + "' cannot generate frame by frame");
+    if (options.batch < 1) throw Error("Generator: batch must be >= 1");
+    device = model_device(*run.model);
+    run.model->eval();
+    start(options.seed);
+  }
+
+  void start(std::uint64_t seed) {
+    SampleRequest req;
+    fill_request(req, run, st, options.batch, options.prefix_pose, options.prefix_control, -1, -1);
+    if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
+    if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
+    req.content = req.content.to(device);
+    req.style = req.style.to(device);
+    req.temperature = options.temperature;
+    req.seed = seed;
+    stream = run.model->begin_stream(req);
+    roots.assign(options.batch, RootPose{});
+    frames = 0;
+  }
+};
+
+Generator::Generator(const std::string& run_dir, const GeneratorOptions& options)
+    : Generator(load_run(run_dir, LoadOptions{options.checkpoint, options.device, options.threads}), options) {}
+
+Generator::Generator(LoadedRun run, const GeneratorOptions& options)
+    : impl_(std::make_unique<Impl>(std::move(run), options)) {}
+
+Generator::~Generator() = default;
+Generator::Generator(Generator&&) noexcept = default;
+Generator& Generator::operator=(Generator&&) noexcept = default;
+
+std::vector<float> Generator::step(const std::vector<float>& control) {
+  auto& m = *impl_;
+  const int64_t b = m.options.batch, c = m.run.context.control_dim, d = m.run.context.pose_dim;
+  if (control.size() != static_cast<size_t>(b * c))
+    throw Error("Generator::step: control must be [" + std::to_string(b) + ", " + std::to_string(c) + "]");
+  auto ctrl = m.st.control(from_vector(control, b, c)).to(m.device);
+  auto pose = m.st.unpose(m.run.model->step_stream(*m.stream, ctrl).to(torch::kCPU, torch::kFloat32)).contiguous();
+  // Root pose: integrate the delta (metres -> skeleton units) from the previous root pose.
+  const auto& sk = m.run.dataset.skeleton;
+  const double units = sk.meters_per_unit > 0 ? 1.0 / sk.meters_per_unit : 1.0;
+  for (int64_t k = 0; k < b && c >= 3; ++k) {
+    RootDelta delta;
+    delta.sideways = control[k * c + 0] * units;
+    delta.forward = control[k * c + 1] * units;
+    delta.turn_rad = control[k * c + 2];
+    auto& r = m.roots[k];
+    auto traj = integrate_root_deltas(sk, {RootDelta{}, delta}, r.position, r.heading_rad);
+    r.position = traj.positions.back();
+    r.heading_rad = traj.headings_rad.back();
+  }
+  ++m.frames;
+  const float* p = pose.data_ptr<float>();
+  return std::vector<float>(p, p + b * d);
+}
+
+void Generator::reset(std::uint64_t seed) { impl_->start(seed); }
+int Generator::batch() const { return impl_->options.batch; }
+int Generator::pose_dim() const { return impl_->run.context.pose_dim; }
+int Generator::control_dim() const { return impl_->run.context.control_dim; }
+int Generator::frames() const { return impl_->frames; }
+const RootPose& Generator::root(int b) const { return impl_->roots.at(b); }
+const LoadedRun& Generator::run() const { return impl_->run; }
+
+}  // namespace mosyn::nn

@@ -1,0 +1,34 @@
+// Offline sampling from a loaded run, in RAW feature units (the run's stats undo the
+// standardisation), and decoding to a clip. No LibTorch in this header.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/skeleton.h"
+#include "nn/run.h"
+
+namespace mosyn::nn {
+
+struct SampleExtras {
+  std::vector<float> prefix_pose;     // optional raw [P, D]: motion preceding the generated frames
+  std::vector<float> prefix_control;  // optional raw [P, C] (empty = mean control)
+  int content = -1;                   // label ids, -1 = none
+  int style = -1;
+};
+
+// n random motions for one control sequence, raw control [T, C] row-major (dx, dz metres,
+// dtheta radians, delta t-1 -> t). Returns n raw pose arrays [T, D] row-major. The n samples are
+// generated as one batch from a generator seeded with `seed`: same run + inputs + seed give
+// identical output; samples within a call and across seeds differ. temperature scales the latent
+// standard deviation (1 = the model's distribution). Throws mosyn::Error on size mismatches.
+std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
+                                               std::uint64_t seed, double temperature = 1.0,
+                                               const SampleExtras& extras = {});
+
+// Raw pose [T, D] and control [T, C] to a clip on the run's skeleton (data::decode), starting at
+// the origin facing heading 0.
+Clip decode_motion(const LoadedRun& run, const std::vector<float>& pose, const std::vector<float>& control);
+
+}  // namespace mosyn::nn

@@ -1,0 +1,93 @@
+// Training of any model family (nn/model.h) on a prepared dataset, into a run directory.
+//
+// A run directory holds
+//   config.json    {"format": "mosyn-run-1", "family", "model" (resolved model config),
+//                   "context" (ModelContext), "train" (TrainOptions), "dataset" (skeleton, layout,
+//                   fps, window, label vocabularies, file split: nn/run_info.h)}
+//   stats.json     the dataset's standardisation statistics (nn/run_info.h stats_to_json)
+//   checkpoint.pt  latest state: model parameters and buffers, Adam state, step, data-order RNG,
+//                  torch CPU RNG, best validation loss (LibTorch archive)
+//   best.pt        the same at the step with the lowest validation loss so far
+//   log.jsonl      one JSON object per logged step: {"step", "loss", "lr", "time_s", metrics...}
+//                  and, at validation steps, "val_loss"
+// Every file is written atomically (temporary file + rename), so an interrupted run always
+// leaves the previous complete files.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "data/dataset.h"
+
+namespace mosyn::nn {
+
+struct TrainOptions {
+  std::string family = "moglow";  // model family (create_model)
+  std::string data_dir;           // prepared dataset directory (train(options) overload)
+  std::string out_dir;            // run directory to create (or resume)
+  nlohmann::json model_config = nlohmann::json::object();  // overrides of the family defaults
+  int steps = 10000;              // total optimiser steps (on resume: the new total)
+  int batch = 100;                // windows per batch
+  int window = 0;                 // frames per window; 0 = the dataset's window_frames
+  double lr = 1e-3;               // peak learning rate (Adam)
+  int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
+  double grad_clip = 5.0;         // max global gradient L2 norm; <= 0 disables clipping
+  std::uint64_t seed = 1;         // model init, data order and dropout
+  int threads = 0;                // CPU threads for LibTorch; 0 = all cores
+  std::string device = "cpu";     // "cpu", "cuda" or "cuda:N"
+  bool resume = false;            // continue the run in out_dir exactly where its checkpoint ended
+  bool overwrite = false;         // replace an existing run in out_dir
+  int checkpoint_every = 500;     // steps between checkpoints (the last step always checkpoints)
+  int validate_every = 500;       // steps between validations (and at the last step); 0 = never
+  int val_windows = 256;          // size of the fixed validation subset (evenly spread windows)
+  int log_every = 10;             // steps between progress reports and log lines
+
+  nlohmann::json to_json() const;
+  // Reads the keys to_json writes; unknown keys throw mosyn::Error.
+  static TrainOptions from_json(const nlohmann::json& j);
+};
+
+// Reported to TrainCallbacks::on_progress every log_every steps and at validations.
+struct TrainProgress {
+  int step = 0;                 // optimiser steps done
+  int total_steps = 0;
+  double loss = 0.0;            // training loss of this step
+  std::map<std::string, double> metrics;  // the model's other loss terms (e.g. nll_frame)
+  double val_loss = -1.0;       // validation loss when validated at this step, else < 0 ... see has_val
+  bool has_val = false;
+  double lr = 0.0;
+  double steps_per_s = 0.0;     // recent training throughput
+  double eta_s = 0.0;           // estimated seconds to the last step
+  double elapsed_s = 0.0;       // wall time of this process's training so far
+};
+
+struct TrainCallbacks {
+  std::function<void(const TrainProgress&)> on_progress;  // optional
+  std::function<void(const std::string&)> on_message;      // optional: "resumed at step 500", ...
+  std::function<bool()> should_stop;  // optional: true = checkpoint now and return early
+};
+
+struct TrainResult {
+  std::string run_dir;
+  int step = 0;               // steps done when train returned
+  double last_loss = 0.0;     // training loss of the last step
+  double best_val_loss = -1.0;  // < 0 when never validated
+  bool stopped_early = false;   // should_stop returned true
+};
+
+// Opens options.data_dir with data::Dataset::open and trains (see the overload).
+TrainResult train(const TrainOptions& options, const TrainCallbacks& callbacks = {});
+
+// Trains options.family on the dataset's train split into options.out_dir.
+// Throws mosyn::Error when out_dir exists without resume/overwrite, when resuming finds no
+// (or a corrupt) checkpoint, when the dataset has no window long enough, and when the loss or
+// gradient becomes NaN/inf (the message names the step; the last good checkpoint is kept).
+TrainResult train(const TrainOptions& options, const data::Dataset& dataset, const TrainCallbacks& callbacks = {});
+
+// The Noam schedule value at a 1-based step.
+double noam_lr(double peak_lr, int warmup, int step);
+
+}  // namespace mosyn::nn

@@ -1,0 +1,391 @@
+#include <ATen/CPUGeneratorImpl.h>
+#include <torch/types.h>
+// clip_grad.h relies on torch/types.h being included first.
+#include <torch/nn/utils/clip_grad.h>
+#include <torch/optim/adam.h>
+#include <torch/utils.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/atomic_file.h"
+#include "io/json_file.h"
+#include "nn/checkpoint.h"
+#include "nn/model.h"
+#include "nn/run_info.h"
+#include "nn/training/train.h"
+
+namespace mosyn::nn {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+nlohmann::json TrainOptions::to_json() const {
+  return {{"family", family},
+          {"data_dir", data_dir},
+          {"out_dir", out_dir},
+          {"model_config", model_config},
+          {"steps", steps},
+          {"batch", batch},
+          {"window", window},
+          {"lr", lr},
+          {"warmup", warmup},
+          {"grad_clip", grad_clip},
+          {"seed", seed},
+          {"threads", threads},
+          {"device", device},
+          {"checkpoint_every", checkpoint_every},
+          {"validate_every", validate_every},
+          {"val_windows", val_windows},
+          {"log_every", log_every}};
+}
+
+TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
+  TrainOptions o;
+  try {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const auto& k = it.key();
+      const auto& v = it.value();
+      if (k == "family") o.family = v.get<std::string>();
+      else if (k == "data_dir") o.data_dir = v.get<std::string>();
+      else if (k == "out_dir") o.out_dir = v.get<std::string>();
+      else if (k == "model_config") o.model_config = v;
+      else if (k == "steps") o.steps = v.get<int>();
+      else if (k == "batch") o.batch = v.get<int>();
+      else if (k == "window") o.window = v.get<int>();
+      else if (k == "lr") o.lr = v.get<double>();
+      else if (k == "warmup") o.warmup = v.get<int>();
+      else if (k == "grad_clip") o.grad_clip = v.get<double>();
+      else if (k == "seed") o.seed = v.get<std::uint64_t>();
+      else if (k == "threads") o.threads = v.get<int>();
+      else if (k == "device") o.device = v.get<std::string>();
+      else if (k == "resume") o.resume = v.get<bool>();
+      else if (k == "overwrite") o.overwrite = v.get<bool>();
+      else if (k == "checkpoint_every") o.checkpoint_every = v.get<int>();
+      else if (k == "validate_every") o.validate_every = v.get<int>();
+      else if (k == "val_windows") o.val_windows = v.get<int>();
+      else if (k == "log_every") o.log_every = v.get<int>();
+      else throw Error("unknown training option '" + k + "'");
+    }
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(std::string("bad training option: ") + e.what());
+  }
+  return o;
+}
+
+double noam_lr(double peak_lr, int warmup, int step) {
+  if (warmup <= 0) return peak_lr;
+  const double s = std::max(step, 1);
+  return peak_lr * std::min(s / warmup, std::sqrt(static_cast<double>(warmup) / s));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Batches
+
+namespace {
+
+struct Window {
+  int clip;
+  int start;
+};
+
+const std::vector<data::ClipRecord>& split_clips(const data::Dataset& ds, bool train) {
+  // The public members rather than clips(): identical, and usable with in-memory datasets.
+  return train ? ds.train_ : ds.val_;
+}
+
+std::vector<Window> enumerate_windows(const std::vector<data::ClipRecord>& clips, int window, int hop) {
+  std::vector<Window> out;
+  for (int c = 0; c < static_cast<int>(clips.size()); ++c)
+    for (int s = 0; s + window <= clips[c].num_frames; s += hop) out.push_back({c, s});
+  return out;
+}
+
+class BatchMaker {
+ public:
+  BatchMaker(const data::Dataset& ds, int pose_dim, int control_dim, const torch::Device& device)
+      : ds_(ds), d_(pose_dim), c_(control_dim), device_(device) {
+    const auto& s = ds.stats();
+    pose_mean_ = torch::tensor(s.pose_mean);
+    pose_std_ = torch::tensor(s.pose_std);
+    ctrl_mean_ = torch::tensor(s.control_mean);
+    ctrl_std_ = torch::tensor(s.control_std);
+  }
+
+  Batch make(const std::vector<data::ClipRecord>& clips, const std::vector<Window>& windows, size_t begin,
+             size_t count, int window) const {
+    auto pose = torch::empty({static_cast<int64_t>(count), window, d_});
+    auto ctrl = torch::empty({static_cast<int64_t>(count), window, c_});
+    auto content = torch::empty({static_cast<int64_t>(count)}, torch::kInt64);
+    auto style = torch::empty({static_cast<int64_t>(count)}, torch::kInt64);
+    for (size_t i = 0; i < count; ++i) {
+      const Window& w = windows[begin + i];
+      const auto& clip = clips[w.clip];
+      std::memcpy(pose[i].data_ptr<float>(), clip.pose.data() + static_cast<size_t>(w.start) * d_,
+                  sizeof(float) * window * d_);
+      std::memcpy(ctrl[i].data_ptr<float>(), clip.control.data() + static_cast<size_t>(w.start) * c_,
+                  sizeof(float) * window * c_);
+      content[i] = clip.content;
+      style[i] = clip.style;
+    }
+    Batch b;
+    b.pose = ((pose - pose_mean_) / pose_std_).to(device_);
+    b.control = ((ctrl - ctrl_mean_) / ctrl_std_).to(device_);
+    b.content = content.to(device_);
+    b.style = style.to(device_);
+    return b;
+  }
+
+ private:
+  const data::Dataset& ds_;
+  int d_, c_;
+  torch::Device device_;
+  torch::Tensor pose_mean_, pose_std_, ctrl_mean_, ctrl_std_;
+};
+
+std::string rng_to_string(const std::mt19937_64& rng) {
+  std::ostringstream s;
+  s << rng;
+  return s.str();
+}
+
+void write_log(const std::string& path, const std::vector<std::string>& lines) {
+  std::string text;
+  for (const auto& l : lines) text += l + "\n";
+  io::write_file_atomically(path, text);
+}
+
+std::vector<std::string> read_log_until(const std::string& path, int step) {
+  std::vector<std::string> out;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    try {
+      if (nlohmann::json::parse(line).at("step").get<int>() <= step) out.push_back(line);
+    } catch (const std::exception&) {
+      // A damaged log line is dropped; the log is informational.
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Training
+
+TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const TrainCallbacks& cb) {
+  using Clock = std::chrono::steady_clock;
+  auto message = [&](const std::string& m) {
+    if (cb.on_message) cb.on_message(m);
+  };
+  if (opts.out_dir.empty()) throw Error("train: no output (run) directory given");
+  if (opts.steps < 1) throw Error("train: steps must be >= 1");
+  if (opts.batch < 1) throw Error("train: batch must be >= 1");
+  if (opts.checkpoint_every < 1) throw Error("train: checkpoint_every must be >= 1");
+  if (opts.log_every < 1) throw Error("train: log_every must be >= 1");
+  if (opts.lr <= 0) throw Error("train: lr must be positive");
+  set_num_threads(opts.threads);
+  const torch::Device device = parse_device(opts.device);
+
+  const fs::path dir(opts.out_dir);
+  const std::string config_path = (dir / "config.json").string(), stats_path = (dir / "stats.json").string();
+  const std::string ckpt_path = (dir / "checkpoint.pt").string(), best_path = (dir / "best.pt").string();
+  const std::string log_path = (dir / "log.jsonl").string();
+  const bool exists = fs::exists(dir) && !fs::is_empty(dir);
+  if (opts.resume) {
+    if (!fs::exists(ckpt_path)) throw Error(ckpt_path + ": nothing to resume (no checkpoint)");
+  } else if (exists) {
+    if (!opts.overwrite)
+      throw Error(opts.out_dir + ": run directory already exists and is not empty (resume or overwrite it)");
+    for (const char* f : {"config.json", "stats.json", "checkpoint.pt", "best.pt", "log.jsonl"}) fs::remove(dir / f);
+  }
+  fs::create_directories(dir);
+
+  const ModelContext context = context_for(dataset.info());
+  if (context.pose_dim <= 0) throw Error("train: the dataset has no pose dimensions");
+  if (static_cast<int>(dataset.stats().pose_std.size()) != context.pose_dim ||
+      static_cast<int>(dataset.stats().control_std.size()) != context.control_dim)
+    throw Error("train: dataset statistics do not match its feature layout");
+
+  std::string family = opts.family;
+  nlohmann::json model_config = opts.model_config;
+  if (opts.resume) {
+    const auto saved = io::read_json(config_path);
+    family = saved.at("family").get<std::string>();
+    model_config = saved.at("model");
+  }
+  torch::manual_seed(opts.seed);
+  auto model = create_model(family, model_config, context);
+  model->to(device);
+
+  const int window = opts.window > 0 ? opts.window : dataset.info().window_frames;
+  if (window < 2) throw Error("train: window must be at least 2 frames (set window)");
+  const auto& train_clips = split_clips(dataset, true);
+  const auto& val_clips = split_clips(dataset, false);
+  const auto train_windows = enumerate_windows(train_clips, window, 1);
+  if (train_windows.empty())
+    throw Error("train: no training clip has " + std::to_string(window) + " frames (shorten the window)");
+  std::vector<Window> val_windows;
+  {
+    const auto all = enumerate_windows(val_clips, window, std::max(1, window / 2));
+    const size_t n = std::min<size_t>(all.size(), std::max(0, opts.val_windows));
+    for (size_t i = 0; i < n; ++i) val_windows.push_back(all[i * all.size() / n]);
+  }
+  BatchMaker maker(dataset, context.pose_dim, context.control_dim, device);
+
+  torch::optim::Adam optimizer(model->parameters(), torch::optim::AdamOptions(opts.lr));
+  std::mt19937_64 rng(opts.seed * 0x9E3779B97F4A7C15ull + 1);
+  int step = 0;
+  double best_val = -1.0;
+  std::vector<std::string> log_lines;
+
+  if (opts.resume) {
+    const auto state = load_checkpoint(ckpt_path, *model, &optimizer, device);
+    step = state.step;
+    best_val = state.best_val_loss;
+    std::istringstream s(state.data_rng);
+    s >> rng;
+    if (s.fail()) throw Error(ckpt_path + ": corrupt data-order RNG state");
+    if (state.torch_rng.defined()) {
+      auto gen = at::detail::getDefaultCPUGenerator();  // a handle sharing the global state
+      gen.set_state(state.torch_rng);
+    }
+    log_lines = read_log_until(log_path, step);
+    message("resumed " + opts.out_dir + " at step " + std::to_string(step));
+  } else {
+    nlohmann::json config = {{"format", "mosyn-run-1"},
+                             {"family", family},
+                             {"model", model->config()},
+                             {"context", context_to_json(context)},
+                             {"train", opts.to_json()},
+                             {"dataset", data::info_to_json(dataset.info())}};
+    config["train"]["window"] = window;
+    io::write_json(config_path, config);
+    io::write_json(stats_path, data::stats_to_json(dataset.stats()));
+  }
+
+  auto save = [&](const std::string& path) {
+    CheckpointState st;
+    st.step = step;
+    st.best_val_loss = best_val;
+    st.data_rng = rng_to_string(rng);
+    st.torch_rng = at::detail::getDefaultCPUGenerator().get_state();
+    save_checkpoint(path, *model, &optimizer, st);
+  };
+
+  auto validate = [&]() -> double {
+    if (val_windows.empty()) return -1.0;
+    torch::NoGradGuard no_grad;
+    model->eval();
+    double total = 0;
+    size_t n = 0;
+    for (size_t b = 0; b < val_windows.size(); b += opts.batch) {
+      const size_t count = std::min<size_t>(opts.batch, val_windows.size() - b);
+      auto terms = model->loss(maker.make(val_clips, val_windows, b, count, window));
+      total += terms.loss().item<double>() * count;
+      n += count;
+    }
+    model->train();
+    return total / n;
+  };
+
+  TrainResult result;
+  result.run_dir = opts.out_dir;
+  const auto t0 = Clock::now();
+  auto t_last = t0;
+  int step_last = step;
+  double rate = 0;
+  std::uniform_int_distribution<size_t> pick(0, train_windows.size() - 1);
+  std::vector<Window> chosen(opts.batch);
+  model->train();
+  while (step < opts.steps) {
+    if (cb.should_stop && cb.should_stop()) {
+      save(ckpt_path);
+      write_log(log_path, log_lines);
+      result.stopped_early = true;
+      message("stopped at step " + std::to_string(step) + "; checkpoint saved");
+      break;
+    }
+    const int next = step + 1;
+    const double lr = noam_lr(opts.lr, opts.warmup, next);
+    for (auto& group : optimizer.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
+    for (auto& w : chosen) w = train_windows[pick(rng)];
+    auto batch = maker.make(train_clips, chosen, 0, chosen.size(), window);
+    auto terms = model->loss(batch);
+    const double loss = terms.loss().item<double>();
+    auto fail = [&](const std::string& what) {
+      write_log(log_path, log_lines);
+      throw Error("training diverged: " + what + " at step " + std::to_string(next) +
+                  (fs::exists(ckpt_path) ? "; the last good checkpoint (" + ckpt_path + ") is kept"
+                                         : "; no checkpoint was written yet"));
+    };
+    if (!std::isfinite(loss)) fail("non-finite loss (" + std::to_string(loss) + ")");
+    optimizer.zero_grad();
+    terms.loss().backward();
+    if (opts.grad_clip > 0) {
+      const double norm = torch::nn::utils::clip_grad_norm_(model->parameters(), opts.grad_clip);
+      if (!std::isfinite(norm)) fail("non-finite gradient norm");
+    }
+    optimizer.step();
+    step = next;
+    result.last_loss = loss;
+
+    const bool last = step == opts.steps;
+    const bool do_val = (opts.validate_every > 0 && step % opts.validate_every == 0) || (last && opts.validate_every > 0);
+    double val = -1.0;
+    if (do_val) {
+      val = validate();
+      if (val >= 0 && (best_val < 0 || val < best_val)) {
+        best_val = val;
+        save(best_path);
+      }
+    }
+    if (step % opts.log_every == 0 || do_val || last) {
+      const auto now = Clock::now();
+      const double dt = std::chrono::duration<double>(now - t_last).count();
+      if (dt > 0 && step > step_last) {
+        const double r = (step - step_last) / dt;
+        rate = rate == 0 ? r : 0.7 * rate + 0.3 * r;
+      }
+      t_last = now;
+      step_last = step;
+      TrainProgress p;
+      p.step = step;
+      p.total_steps = opts.steps;
+      p.loss = loss;
+      for (const auto& kv : terms.terms)
+        if (kv.first != "loss") p.metrics[kv.first] = kv.second.item<double>();
+      p.has_val = do_val && val >= 0;
+      p.val_loss = val;
+      p.lr = lr;
+      p.steps_per_s = rate;
+      p.eta_s = rate > 0 ? (opts.steps - step) / rate : 0;
+      p.elapsed_s = std::chrono::duration<double>(now - t0).count();
+      nlohmann::json line = {{"step", step}, {"loss", loss}, {"lr", lr}, {"time_s", p.elapsed_s}};
+      for (const auto& kv : p.metrics) line[kv.first] = kv.second;
+      if (p.has_val) line["val_loss"] = val;
+      log_lines.push_back(line.dump());
+      if (cb.on_progress) cb.on_progress(p);
+    }
+    if (step % opts.checkpoint_every == 0 || last) {
+      save(ckpt_path);
+      write_log(log_path, log_lines);
+    }
+  }
+  result.step = step;
+  result.best_val_loss = best_val;
+  return result;
+}
+
+}  // namespace mosyn::nn

@@ -1,0 +1,255 @@
+// Trainer and run directories: exact resume, refusal to overwrite, divergence handling,
+// corrupt checkpoints, load_run, sampling determinism from a run.
+#include <gtest/gtest.h>
+#include <torch/nn/module.h>
+#include <torch/utils.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "core/error.h"
+#include "nn/generator.h"
+#include "nn/model.h"
+#include "nn/run.h"
+#include "nn/sampling.h"
+#include "nn/training/train.h"
+
+using namespace mosyn;
+using namespace mosyn::nn;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kDim = 6;  // positions of a two-joint skeleton
+
+float d_sign(int t) { return (t / 10) % 2 ? 1.0f : -1.0f; }
+
+data::ClipRecord sine_clip(std::mt19937& rng, int frames) {
+  std::uniform_real_distribution<float> u(0, 6.28f), f(0.2f, 0.5f);
+  std::normal_distribution<float> noise(0, 0.05f);
+  data::ClipRecord c;
+  c.num_frames = frames;
+  const float phase = u(rng), freq = f(rng);
+  for (int t = 0; t < frames; ++t) {
+    for (int d = 0; d < kDim; ++d) c.pose.push_back(std::sin(freq * t + phase + 0.7f * d) + noise(rng));
+    c.control.insert(c.control.end(), {freq, 0.0f, 0.01f * d_sign(t)});
+  }
+  return c;
+}
+
+data::Dataset synthetic_dataset() {
+  std::mt19937 rng(7);
+  data::Dataset ds;
+  auto& info = ds.info_;
+  info.fps = 20;
+  info.skeleton.joint_names = {"Root", "Tip"};
+  info.skeleton.parents = {-1, 0};
+  info.skeleton.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0)};
+  info.layout.form = data::PoseForm::kPositions;
+  info.layout.pose_dim = kDim;
+  info.layout.control_dim = 3;
+  for (int d = 0; d < kDim; ++d) info.layout.pose_names.push_back("p" + std::to_string(d));
+  info.layout.control_names = {"dx_m", "dz_m", "dtheta_rad"};
+  info.window_frames = 16;
+  info.window_hop = 8;
+  info.content_labels = {"walk"};
+  for (int i = 0; i < 6; ++i) ds.train_.push_back(sine_clip(rng, 40));
+  for (int i = 0; i < 2; ++i) ds.val_.push_back(sine_clip(rng, 40));
+  ds.stats_.pose_mean.assign(kDim, 0.0f);
+  ds.stats_.pose_std.assign(kDim, 0.7f);
+  ds.stats_.control_mean = {0.35f, 0.0f, 0.0f};
+  ds.stats_.control_std = {0.1f, 1.0f, 0.01f};
+  return ds;
+}
+
+fs::path temp_dir(const std::string& name) {
+  auto p = fs::temp_directory_path() / ("mosyn_nn_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+TrainOptions tiny_options(const fs::path& dir) {
+  TrainOptions o;
+  o.out_dir = dir.string();
+  o.model_config = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.5}};
+  o.steps = 12;
+  o.batch = 4;
+  o.lr = 1e-3;
+  o.warmup = 5;
+  o.threads = 2;
+  o.checkpoint_every = 4;
+  o.validate_every = 4;
+  o.log_every = 2;
+  o.seed = 3;
+  return o;
+}
+
+double max_param_diff(torch::nn::Module& a, torch::nn::Module& b) {
+  auto pa = a.named_parameters(), pb = b.named_parameters();
+  double m = 0;
+  for (const auto& kv : pa) m = std::max(m, (kv.value() - pb[kv.key()]).abs().max().item<double>());
+  auto ba = a.named_buffers(), bb = b.named_buffers();
+  for (const auto& kv : ba) m = std::max(m, (kv.value() - bb[kv.key()]).abs().max().item<double>());
+  return m;
+}
+
+}  // namespace
+
+TEST(Training, NoamSchedule) {
+  EXPECT_DOUBLE_EQ(noam_lr(1e-3, 0, 7), 1e-3);
+  EXPECT_DOUBLE_EQ(noam_lr(1e-3, 100, 50), 0.5e-3);
+  EXPECT_DOUBLE_EQ(noam_lr(1e-3, 100, 100), 1e-3);
+  EXPECT_DOUBLE_EQ(noam_lr(1e-3, 100, 400), 0.5e-3);
+}
+
+TEST(Training, ResumeEqualsUninterruptedTraining) {
+  const auto ds = synthetic_dataset();
+  const auto dir_a = temp_dir("full"), dir_b = temp_dir("resumed");
+  auto oa = tiny_options(dir_a);
+  std::vector<TrainProgress> progress;
+  TrainCallbacks cb;
+  cb.on_progress = [&](const TrainProgress& p) { progress.push_back(p); };
+  auto ra = train(oa, ds, cb);
+  EXPECT_EQ(ra.step, 12);
+  ASSERT_FALSE(progress.empty());
+  EXPECT_EQ(progress.back().step, 12);
+  EXPECT_TRUE(progress.back().has_val);
+  EXPECT_TRUE(progress.back().metrics.count("nll_frame"));
+
+  auto ob = tiny_options(dir_b);
+  ob.steps = 5;  // checkpoints at 4 and at the last step, 5
+  train(ob, ds);
+  ob.steps = 12;
+  ob.resume = true;
+  auto rb = train(ob, ds);
+  EXPECT_EQ(rb.step, 12);
+  EXPECT_NEAR(ra.last_loss, rb.last_loss, 1e-6);
+
+  auto a = load_run(dir_a.string(), {"checkpoint.pt", "cpu", 2});
+  auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 2});
+  EXPECT_EQ(a.step, 12);
+  EXPECT_EQ(b.step, 12);
+  EXPECT_LT(max_param_diff(*a.model, *b.model), 1e-6);
+  EXPECT_TRUE(fs::exists(dir_a / "best.pt"));
+  EXPECT_TRUE(fs::exists(dir_a / "log.jsonl"));
+  EXPECT_TRUE(fs::exists(dir_a / "stats.json"));
+  EXPECT_EQ(a.family, "moglow");
+  EXPECT_EQ(a.context.pose_dim, kDim);
+  EXPECT_EQ(a.dataset.content_labels, ds.info().content_labels);
+  fs::remove_all(dir_a);
+  fs::remove_all(dir_b);
+}
+
+TEST(Training, ExistingRunIsNotOverwrittenWithoutFlag) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("exists");
+  auto o = tiny_options(dir);
+  o.steps = 2;
+  train(o, ds);
+  try {
+    train(o, ds);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("already exists"), std::string::npos) << e.what();
+  }
+  o.overwrite = true;
+  EXPECT_NO_THROW(train(o, ds));
+  auto fresh = tiny_options(temp_dir("nothing"));
+  fresh.resume = true;
+  EXPECT_THROW(train(fresh, ds), Error);
+  fs::remove_all(dir);
+}
+
+TEST(Training, DivergenceStopsNamingTheStepAndKeepsLastCheckpoint) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("nan");
+  auto o = tiny_options(dir);
+  o.lr = 1e6;
+  o.warmup = 0;
+  o.grad_clip = 0;
+  o.steps = 60;
+  o.checkpoint_every = 1;
+  o.validate_every = 0;
+  std::string msg;
+  try {
+    train(o, ds);
+  } catch (const Error& e) {
+    msg = e.what();
+  }
+  ASSERT_NE(msg.find("at step"), std::string::npos) << "training did not diverge: '" << msg << "'";
+  const int failed = std::stoi(msg.substr(msg.find("at step") + 8));
+  if (failed > 1) {
+    auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 2});
+    EXPECT_EQ(run.step, failed - 1);
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Training, TruncatedCheckpointGivesClearError) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("trunc");
+  auto o = tiny_options(dir);
+  o.steps = 2;
+  train(o, ds);
+  const auto ckpt = dir / "checkpoint.pt";
+  const auto size = fs::file_size(ckpt);
+  fs::resize_file(ckpt, size / 2);
+  try {
+    load_run(dir.string());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("checkpoint.pt"), std::string::npos) << e.what();
+  }
+  {
+    std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << "garbage";
+  }
+  EXPECT_THROW(load_run(dir.string()), Error);
+  fs::remove(dir / "config.json");
+  try {
+    load_run(dir.string());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("config.json"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("sample");
+  auto o = tiny_options(dir);
+  o.steps = 6;
+  train(o, ds);
+  auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 2});
+  const auto& clip = ds.val_[0];
+  const int t = 20;
+  std::vector<float> control(clip.control.begin(), clip.control.begin() + 3 * t);
+  auto a = sample_motions(run, control, 2, 5);
+  auto b = sample_motions(run, control, 2, 5);
+  auto c = sample_motions(run, control, 2, 6);
+  ASSERT_EQ(a.size(), 2u);
+  ASSERT_EQ(a[0].size(), static_cast<size_t>(t * kDim));
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  EXPECT_NE(a[0], a[1]);
+
+  // The real-time generator, stepping a batch of 2 with the same seed, gives the same frames.
+  GeneratorOptions go;
+  go.batch = 2;
+  go.seed = 5;
+  go.threads = 2;
+  Generator gen(dir.string(), go);
+  EXPECT_EQ(gen.pose_dim(), kDim);
+  for (int f = 0; f < t; ++f) {
+    std::vector<float> ctrl2;
+    for (int k = 0; k < 2; ++k) ctrl2.insert(ctrl2.end(), control.begin() + 3 * f, control.begin() + 3 * f + 3);
+    auto pose = gen.step(ctrl2);
+    ASSERT_EQ(pose.size(), static_cast<size_t>(2 * kDim));
+    for (int k = 0; k < 2; ++k)
+      for (int d = 0; d < kDim; ++d) EXPECT_NEAR(pose[k * kDim + d], a[k][f * kDim + d], 1e-4) << f;
+  }
+  EXPECT_EQ(gen.frames(), t);
+  fs::remove_all(dir);
+}
