@@ -101,6 +101,8 @@ Clip collapse_static_root(const Clip& clip) {
 
 // ---- T-pose ----
 
+constexpr int kMaxTposeFrames = 4;
+
 const char* to_string(TposeMode mode) {
   switch (mode) {
     case TposeMode::kAuto: return "auto";
@@ -117,25 +119,37 @@ TposeMode parse_tpose_mode(const std::string& text) {
   throw Error("unknown T-pose mode '" + text + "' (expected auto, on or off)");
 }
 
-bool looks_like_tpose(const Motion& motion) {
-  if (motion.num_frames < 3 || motion.num_joints < 2) return false;
+namespace {
+
+// Non-root local rotations close to identity: mean geodesic angle < 0.15 rad, none above 0.5.
+bool near_identity(const Motion& motion, int t) {
   double sum = 0, worst = 0;
   for (int j = 1; j < motion.num_joints; ++j) {
-    const double angle = geodesic_angle(motion.rotation(0, j), Eigen::Quaterniond::Identity());
+    const double angle = geodesic_angle(motion.rotation(t, j), Eigen::Quaterniond::Identity());
     sum += angle;
     worst = std::max(worst, angle);
   }
-  const double mean = sum / (motion.num_joints - 1);
-  if (mean >= 0.15 || worst > 0.5) return false;
-  const double jump = pose_change(motion, 0, 1).first;
-  const double next = pose_change(motion, 1, 2).first;
-  return jump > 0.1 && jump > 5.0 * next;
+  return sum / (motion.num_joints - 1) < 0.15 && worst <= 0.5;
 }
+
+}  // namespace
+
+int count_leading_rest_frames(const Motion& motion) {
+  if (motion.num_frames < 3 || motion.num_joints < 2) return 0;
+  int f = 0;
+  while (f < kMaxTposeFrames && f + 2 < motion.num_frames && near_identity(motion, f)) ++f;
+  if (f == 0 || f + 1 >= motion.num_frames) return 0;
+  const double jump = pose_change(motion, f - 1, f).first;
+  const double next = pose_change(motion, f, f + 1).first;
+  return jump > 0.1 && jump > 5.0 * next ? f : 0;
+}
+
+bool looks_like_tpose(const Motion& motion) { return count_leading_rest_frames(motion) > 0; }
 
 Motion remove_tpose(const Motion& motion, TposeMode mode) {
   if (motion.num_frames < 2 || mode == TposeMode::kOff) return motion;
-  if (mode == TposeMode::kAuto && !looks_like_tpose(motion)) return motion;
-  return slice_frames(motion, 1, motion.num_frames - 1);
+  const int drop = mode == TposeMode::kOn ? 1 : count_leading_rest_frames(motion);
+  return drop == 0 ? motion : slice_frames(motion, drop, motion.num_frames - drop);
 }
 
 // ---- Joint subsets ----

@@ -33,14 +33,17 @@ const char* to_string(TposeMode mode);
 // "auto", "on" or "off"; throws mosyn::Error otherwise.
 TposeMode parse_tpose_mode(const std::string& text);
 
-// True when frame 0 looks like a rest pose glued in front of the motion: its non-root local
-// rotations are close to identity (mean geodesic angle < 0.15 rad, none above 0.5 rad) and the
-// jump from frame 0 to frame 1 (mean non-root angle > 0.1 rad) is more than five times the
-// change from frame 1 to frame 2. Needs at least 3 frames (false otherwise).
+// Number of leading frames that are a rest pose glued in front of the motion (0 if none): the
+// first f <= 4 frames all have non-root local rotations close to identity (mean geodesic angle
+// < 0.15 rad, none above 0.5 rad), frame f does not, and the jump from frame f-1 to f (mean
+// non-root angle > 0.1 rad) is more than five times the change from f to f+1. Usually 1 (CMU's
+// converter T-pose); CMU 07_12 has 2 (a T-pose, then an all-zero frame at the origin).
+int count_leading_rest_frames(const Motion& motion);
+// count_leading_rest_frames(motion) > 0.
 bool looks_like_tpose(const Motion& motion);
 
-// The motion without frame 0 when the mode (and, for kAuto, looks_like_tpose) says so. A motion
-// of fewer than 2 frames is returned unchanged.
+// kOn drops frame 0; kAuto drops count_leading_rest_frames frames; kOff and motions of fewer
+// than 2 frames are returned unchanged.
 Motion remove_tpose(const Motion& motion, TposeMode mode);
 
 // ---- Joint subsets ------------------------------------------------------------------------

@@ -5,13 +5,32 @@
 //                  window length and hop, label vocabularies, the file split, augmentation,
 //                  and the source folder it was made from
 //   stats.json     per-dimension mean and standard deviation of pose and control features
-//                  (computed on the training split, after augmentation; std floored at 1e-4 ... see
-//                  DatasetStats)
-//   train.bin, val.bin   compact binary caches of whole clips (see dataset.cpp for the layout)
+//                  (computed on the training split, after augmentation; std floored at
+//                  kStdFloor, see DatasetStats)
+//   train.bin, val.bin   compact binary caches of whole clips (layout below)
+// dataset.json is written last, so a directory with it is complete.
+//
+// Cache layout (little-endian throughout):
+//   char[8]  "MOSYNCLP"           magic
+//   u32      version (1)
+//   u32      pose_dim, control_dim
+//   u32      num_clips
+//   u64      total frames
+//   num_clips times:
+//     u32 source length, bytes (UTF-8, no terminator)
+//     i32 content, i32 style     (-1 = unlabelled)
+//     u8  flags                  (bit 0 mirrored, bit 1 reversed)
+//     u32 num_frames
+//     f32 pose[num_frames * pose_dim], f32 control[num_frames * control_dim]
+//   u64      FNV-1a 64 hash of every byte before it
+//   char[8]  "MOSYNEND"
+// A truncated, extended or corrupted file fails the size, hash or end-marker check with an
+// error naming it.
 // Training never re-parses BVH: windows are enumerated on the fly from whole clips.
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -32,7 +51,13 @@ struct ClipRecord {
   std::vector<float> control;  // [T, control_dim]
 };
 
-// Per-dimension standardisation statistics: x_std = (x - mean) / std.
+// Smallest standard deviation stored (feature units: metres, radians, 6D components). Constant
+// dimensions (e.g. the root's own x and z in positions form, always 0) would otherwise blow up
+// standardisation; with the floor they standardise to (x - mean) / 1e-3.
+constexpr float kStdFloor = 1e-3f;
+
+// Per-dimension standardisation statistics: x_std = (x - mean) / std, std = max(sample std,
+// kStdFloor) over every frame of the training split (population std, augmented clips included).
 struct DatasetStats {
   std::vector<float> pose_mean, pose_std;        // [pose_dim]
   std::vector<float> control_mean, control_std;  // [control_dim]
@@ -48,7 +73,15 @@ struct DatasetInfo {
   std::vector<std::string> content_labels;  // vocabulary, index = label id
   std::vector<std::string> style_labels;
   std::vector<std::string> train_files, val_files;  // split by source file
-  std::string source_dir;
+  std::string source_dir;       // the source folder; several joined by ';' (see source_dirs)
+  // Added by the data layer (optional in dataset.json, defaults below):
+  std::vector<std::string> source_dirs;   // every input folder, in order
+  std::string source_layout;              // "bandai-namco", "cmu", "plain" or "mixed"
+  bool augment_mirror = false;            // mirrored copies of every clip are in the caches
+  bool augment_reverse = false;           // time-reversed copies are in the caches
+  std::string tpose = "auto";             // T-pose removal mode used (data/augment.h)
+  std::vector<std::string> drop_joint_patterns, keep_joint_patterns;
+  std::vector<std::string> source_joint_names;  // joints of the BVH files before any reduction
 };
 
 // One training window: clip index within a split and first frame.
@@ -63,16 +96,61 @@ class Dataset {
   // file when something is missing, truncated or inconsistent.
   static Dataset open(const std::string& dir);
 
+  // Frames and windows of a split's clips are enumerated in cache order.
   const DatasetInfo& info() const { return info_; }
   const DatasetStats& stats() const { return stats_; }
   // split is "train" or "val"; throws mosyn::Error otherwise.
   const std::vector<ClipRecord>& clips(const std::string& split) const;
-  // Every window of window_frames frames with the given hop (0 = the dataset's own) in a split.
+  // Every window of window_frames frames with the given hop (0 = the dataset's own) in a split:
+  // for each clip, starts 0, hop, 2 hop, ... while start + window_frames <= num_frames; clips
+  // shorter than a window give none. Throws mosyn::Error for a bad split or non-positive sizes.
   std::vector<WindowRef> windows(const std::string& split, int window_frames = 0, int hop = 0) const;
 
   DatasetInfo info_;
   DatasetStats stats_;
   std::vector<ClipRecord> train_, val_;
 };
+
+// ---- Serialisation (used by Dataset::open and prepare_dataset; run directories may reuse) ----
+
+nlohmann::json skeleton_to_json(const Skeleton& skeleton);
+// Throws ParseError(file, 0, ...) naming the missing or malformed key.
+Skeleton skeleton_from_json(const nlohmann::json& j, const std::string& file);
+nlohmann::json layout_to_json(const FeatureLayout& layout);
+FeatureLayout layout_from_json(const nlohmann::json& j, const std::string& file);
+nlohmann::json info_to_json(const DatasetInfo& info);
+// Also checks that the layout fits the skeleton (pose_dim, root joint).
+DatasetInfo info_from_json(const nlohmann::json& j, const std::string& file);
+nlohmann::json stats_to_json(const DatasetStats& stats);
+DatasetStats stats_from_json(const nlohmann::json& j, const std::string& file);
+
+// The cache bytes of clips (layout above). Throws mosyn::Error when a clip's arrays do not hold
+// num_frames rows of the given dims.
+std::string format_clip_cache(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim);
+// Parses cache bytes, checking magic, version, dims against the expected ones, sizes, hash and
+// end marker. Throws ParseError(file, 0, ...) saying what is wrong.
+std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim, int control_dim,
+                                         const std::string& file);
+
+// Statistics of clips (see DatasetStats). Zero clips give mean 0, std 1.
+DatasetStats compute_stats(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim);
+
+// Writes dataset.json, stats.json, train.bin and val.bin atomically into dir (created if
+// missing). Throws mosyn::Error when dir already holds a dataset.json and overwrite is false.
+void write_dataset(const std::string& dir, const DatasetInfo& info, const DatasetStats& stats,
+                   const std::vector<ClipRecord>& train, const std::vector<ClipRecord>& val, bool overwrite);
+
+// ---- Back to motion ----
+
+// Raw (not standardised) features [num_frames, pose_dim] / [num_frames, control_dim] decoded to
+// a clip on the dataset skeleton at the dataset's fps, starting at start_position (skeleton
+// units) and start_heading_rad; ready for io::from_clip / write_bvh.
+Clip decode_features(const DatasetInfo& info, const float* pose, const float* control, int num_frames,
+                     const Eigen::Vector3d& start_position = Eigen::Vector3d::Zero(), double start_heading_rad = 0.0);
+Clip decode_record(const DatasetInfo& info, const ClipRecord& record);
+
+// Multi-line text for `mosyn data info`: source, fps, skeleton, form and dims, window, per split
+// clips / frames / hours / windows, and label counts (clips) per split.
+std::string dataset_summary(const Dataset& dataset);
 
 }  // namespace mosyn::data

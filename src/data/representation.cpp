@@ -86,6 +86,9 @@ PoseForm parse_pose_form(const std::string& text) {
 FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_joint,
                           const Eigen::Vector3d& forward_in_root) {
   skeleton.validate();
+  if (root_joint < 0 || root_joint >= skeleton.num_joints())
+    throw Error("feature layout: root joint " + std::to_string(root_joint) + " is not a joint of a " +
+                std::to_string(skeleton.num_joints()) + "-joint skeleton");
   FeatureLayout layout;
   layout.form = form;
   layout.root_joint = root_joint;

@@ -1,0 +1,518 @@
+#include "data/dataset.h"
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/atomic_file.h"
+#include "io/json_file.h"
+
+namespace mosyn::data {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr char kMagic[8] = {'M', 'O', 'S', 'Y', 'N', 'C', 'L', 'P'};
+constexpr char kEnd[8] = {'M', 'O', 'S', 'Y', 'N', 'E', 'N', 'D'};
+constexpr uint32_t kCacheVersion = 1;
+constexpr int kInfoVersion = 1;
+
+bool little_endian() {
+  const uint16_t one = 1;
+  unsigned char first;
+  std::memcpy(&first, &one, 1);
+  return first == 1;
+}
+
+uint64_t fnv1a(const char* data, size_t n) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+template <typename T>
+void put(std::string* out, T value) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  out->append(bytes, sizeof(T));
+}
+
+// Bounds-checked reader over cache bytes.
+class Reader {
+ public:
+  Reader(const std::string& bytes, size_t end, const std::string& file) : bytes_(bytes), end_(end), file_(file) {}
+  template <typename T>
+  T get(const char* what) {
+    need(sizeof(T), what);
+    T value;
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  std::string get_string(size_t n, const char* what) {
+    need(n, what);
+    std::string s = bytes_.substr(pos_, n);
+    pos_ += n;
+    return s;
+  }
+  void get_floats(std::vector<float>* out, uint64_t count, const char* what) {
+    if (count > (end_ - pos_) / sizeof(float)) need(end_ - pos_ + 1, what);
+    out->resize(static_cast<size_t>(count));
+    std::memcpy(out->data(), bytes_.data() + pos_, static_cast<size_t>(count) * sizeof(float));
+    pos_ += static_cast<size_t>(count) * sizeof(float);
+  }
+  size_t pos() const { return pos_; }
+
+ private:
+  void need(size_t n, const char* what) const {
+    if (n > end_ - pos_)
+      throw ParseError(file_, 0, std::string("truncated cache: ") + what + " runs past the end of the clip data");
+  }
+  const std::string& bytes_;
+  size_t end_;
+  size_t pos_ = 0;
+  const std::string& file_;
+};
+
+template <typename T>
+T get_key(const json& j, const char* key, const std::string& file) {
+  if (!j.is_object() || !j.contains(key)) throw ParseError(file, 0, std::string("missing key \"") + key + "\"");
+  try {
+    return j.at(key).get<T>();
+  } catch (const json::exception& e) {
+    throw ParseError(file, 0, std::string("key \"") + key + "\" has the wrong type: " + e.what());
+  }
+}
+
+json vec3(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+Eigen::Vector3d vec3_from(const json& j, const std::string& file, const char* what) {
+  if (!j.is_array() || j.size() != 3 || !j[0].is_number() || !j[1].is_number() || !j[2].is_number())
+    throw ParseError(file, 0, std::string(what) + " must be an array of 3 numbers");
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+void check_record(const ClipRecord& c, int pose_dim, int control_dim) {
+  if (c.num_frames < 0 || c.pose.size() != static_cast<size_t>(c.num_frames) * pose_dim ||
+      c.control.size() != static_cast<size_t>(c.num_frames) * control_dim)
+    throw Error("clip '" + c.source + "': feature arrays do not hold " + std::to_string(c.num_frames) + " frames of " +
+                std::to_string(pose_dim) + " + " + std::to_string(control_dim) + " values");
+}
+
+std::vector<float> floats_from(const json& j, const char* key, size_t expected, const std::string& file) {
+  const std::vector<float> v = get_key<std::vector<float>>(j, key, file);
+  if (v.size() != expected)
+    throw ParseError(file, 0,
+                     std::string(key) + " has " + std::to_string(v.size()) + " entries, expected " + std::to_string(expected));
+  for (float x : v)
+    if (!std::isfinite(x)) throw ParseError(file, 0, std::string(key) + " holds a non-finite value");
+  return v;
+}
+
+}  // namespace
+
+// ---- JSON ----
+
+json skeleton_to_json(const Skeleton& s) {
+  json j;
+  j["joint_names"] = s.joint_names;
+  j["parents"] = s.parents;
+  json offsets = json::array();
+  for (const Eigen::Vector3d& o : s.offsets) offsets.push_back(vec3(o));
+  j["offsets"] = offsets;
+  json sites = json::array();
+  for (const EndSite& e : s.end_sites) sites.push_back({{"parent", e.parent}, {"offset", vec3(e.offset)}});
+  j["end_sites"] = sites;
+  j["meters_per_unit"] = s.meters_per_unit;
+  j["up_axis"] = s.up_axis;
+  return j;
+}
+
+Skeleton skeleton_from_json(const json& j, const std::string& file) {
+  Skeleton s;
+  s.joint_names = get_key<std::vector<std::string>>(j, "joint_names", file);
+  s.parents = get_key<std::vector<int>>(j, "parents", file);
+  const json offsets = get_key<json>(j, "offsets", file);
+  if (!offsets.is_array()) throw ParseError(file, 0, "skeleton offsets must be an array");
+  for (const json& o : offsets) s.offsets.push_back(vec3_from(o, file, "a skeleton offset"));
+  if (j.contains("end_sites")) {
+    for (const json& e : j["end_sites"])
+      s.end_sites.push_back({get_key<int>(e, "parent", file), vec3_from(get_key<json>(e, "offset", file), file, "an end-site offset")});
+  }
+  s.meters_per_unit = get_key<double>(j, "meters_per_unit", file);
+  s.up_axis = get_key<int>(j, "up_axis", file);
+  try {
+    s.validate();
+  } catch (const Error& e) {
+    throw ParseError(file, 0, e.what());
+  }
+  return s;
+}
+
+json layout_to_json(const FeatureLayout& l) {
+  return {{"form", to_string(l.form)},        {"root_joint", l.root_joint},
+          {"forward_in_root", vec3(l.forward_in_root)}, {"pose_dim", l.pose_dim},
+          {"control_dim", l.control_dim},     {"pose_names", l.pose_names},
+          {"control_names", l.control_names}};
+}
+
+FeatureLayout layout_from_json(const json& j, const std::string& file) {
+  FeatureLayout l;
+  try {
+    l.form = parse_pose_form(get_key<std::string>(j, "form", file));
+  } catch (const ParseError&) {
+    throw;
+  } catch (const Error& e) {
+    throw ParseError(file, 0, e.what());
+  }
+  l.root_joint = get_key<int>(j, "root_joint", file);
+  l.forward_in_root = vec3_from(get_key<json>(j, "forward_in_root", file), file, "forward_in_root");
+  l.pose_dim = get_key<int>(j, "pose_dim", file);
+  l.control_dim = get_key<int>(j, "control_dim", file);
+  l.pose_names = get_key<std::vector<std::string>>(j, "pose_names", file);
+  l.control_names = get_key<std::vector<std::string>>(j, "control_names", file);
+  if (static_cast<int>(l.pose_names.size()) != l.pose_dim || static_cast<int>(l.control_names.size()) != l.control_dim)
+    throw ParseError(file, 0, "layout names do not match pose_dim / control_dim");
+  return l;
+}
+
+json info_to_json(const DatasetInfo& info) {
+  json j;
+  j["version"] = info.version;
+  j["fps"] = info.fps;
+  j["skeleton"] = skeleton_to_json(info.skeleton);
+  j["layout"] = layout_to_json(info.layout);
+  j["window_frames"] = info.window_frames;
+  j["window_hop"] = info.window_hop;
+  j["content_labels"] = info.content_labels;
+  j["style_labels"] = info.style_labels;
+  j["train_files"] = info.train_files;
+  j["val_files"] = info.val_files;
+  j["source_dir"] = info.source_dir;
+  j["source_dirs"] = info.source_dirs;
+  j["source_layout"] = info.source_layout;
+  j["augmentation"] = {{"mirror", info.augment_mirror}, {"reverse", info.augment_reverse}};
+  j["tpose"] = info.tpose;
+  j["drop_joint_patterns"] = info.drop_joint_patterns;
+  j["keep_joint_patterns"] = info.keep_joint_patterns;
+  j["source_joint_names"] = info.source_joint_names;
+  return j;
+}
+
+DatasetInfo info_from_json(const json& j, const std::string& file) {
+  if (!j.is_object()) throw ParseError(file, 0, "expected a JSON object");
+  DatasetInfo info;
+  info.version = get_key<int>(j, "version", file);
+  if (info.version != kInfoVersion)
+    throw ParseError(file, 0, "dataset version " + std::to_string(info.version) + " is not supported (expected " +
+                                  std::to_string(kInfoVersion) + "); prepare the dataset again");
+  info.fps = get_key<double>(j, "fps", file);
+  if (!(info.fps > 0)) throw ParseError(file, 0, "fps must be positive");
+  info.skeleton = skeleton_from_json(get_key<json>(j, "skeleton", file), file);
+  info.layout = layout_from_json(get_key<json>(j, "layout", file), file);
+  try {
+    const FeatureLayout expected =
+        make_layout(info.skeleton, info.layout.form, info.layout.root_joint, info.layout.forward_in_root);
+    if (expected.pose_dim != info.layout.pose_dim || expected.control_dim != info.layout.control_dim)
+      throw Error("layout dims (" + std::to_string(info.layout.pose_dim) + ", " + std::to_string(info.layout.control_dim) +
+                  ") do not match the skeleton (" + std::to_string(expected.pose_dim) + ", " +
+                  std::to_string(expected.control_dim) + ")");
+  } catch (const ParseError&) {
+    throw;
+  } catch (const Error& e) {
+    throw ParseError(file, 0, e.what());
+  }
+  info.window_frames = get_key<int>(j, "window_frames", file);
+  info.window_hop = get_key<int>(j, "window_hop", file);
+  if (info.window_frames <= 0 || info.window_hop <= 0)
+    throw ParseError(file, 0, "window_frames and window_hop must be positive");
+  info.content_labels = get_key<std::vector<std::string>>(j, "content_labels", file);
+  info.style_labels = get_key<std::vector<std::string>>(j, "style_labels", file);
+  info.train_files = get_key<std::vector<std::string>>(j, "train_files", file);
+  info.val_files = get_key<std::vector<std::string>>(j, "val_files", file);
+  info.source_dir = get_key<std::string>(j, "source_dir", file);
+  info.source_dirs = j.value("source_dirs", std::vector<std::string>{info.source_dir});
+  info.source_layout = j.value("source_layout", std::string());
+  if (j.contains("augmentation")) {
+    info.augment_mirror = j["augmentation"].value("mirror", false);
+    info.augment_reverse = j["augmentation"].value("reverse", false);
+  }
+  info.tpose = j.value("tpose", std::string("auto"));
+  info.drop_joint_patterns = j.value("drop_joint_patterns", std::vector<std::string>{});
+  info.keep_joint_patterns = j.value("keep_joint_patterns", std::vector<std::string>{});
+  info.source_joint_names = j.value("source_joint_names", std::vector<std::string>{});
+  return info;
+}
+
+json stats_to_json(const DatasetStats& s) {
+  return {{"pose_mean", s.pose_mean},
+          {"pose_std", s.pose_std},
+          {"control_mean", s.control_mean},
+          {"control_std", s.control_std},
+          {"std_floor", kStdFloor}};
+}
+
+DatasetStats stats_from_json(const json& j, const std::string& file) {
+  DatasetStats s;
+  const size_t pose_dim = get_key<std::vector<float>>(j, "pose_mean", file).size();
+  const size_t control_dim = get_key<std::vector<float>>(j, "control_mean", file).size();
+  s.pose_mean = floats_from(j, "pose_mean", pose_dim, file);
+  s.pose_std = floats_from(j, "pose_std", pose_dim, file);
+  s.control_mean = floats_from(j, "control_mean", control_dim, file);
+  s.control_std = floats_from(j, "control_std", control_dim, file);
+  for (float x : s.pose_std)
+    if (!(x > 0)) throw ParseError(file, 0, "pose_std must be positive");
+  for (float x : s.control_std)
+    if (!(x > 0)) throw ParseError(file, 0, "control_std must be positive");
+  return s;
+}
+
+// ---- Cache ----
+
+std::string format_clip_cache(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim) {
+  if (!little_endian()) throw Error("dataset caches are little-endian; this machine is not");
+  uint64_t total_frames = 0;
+  for (const ClipRecord& c : clips) {
+    check_record(c, pose_dim, control_dim);
+    total_frames += static_cast<uint64_t>(c.num_frames);
+  }
+  std::string out;
+  out.append(kMagic, 8);
+  put<uint32_t>(&out, kCacheVersion);
+  put<uint32_t>(&out, static_cast<uint32_t>(pose_dim));
+  put<uint32_t>(&out, static_cast<uint32_t>(control_dim));
+  put<uint32_t>(&out, static_cast<uint32_t>(clips.size()));
+  put<uint64_t>(&out, total_frames);
+  for (const ClipRecord& c : clips) {
+    put<uint32_t>(&out, static_cast<uint32_t>(c.source.size()));
+    out += c.source;
+    put<int32_t>(&out, c.content);
+    put<int32_t>(&out, c.style);
+    put<uint8_t>(&out, static_cast<uint8_t>((c.mirrored ? 1 : 0) | (c.reversed ? 2 : 0)));
+    put<uint32_t>(&out, static_cast<uint32_t>(c.num_frames));
+    out.append(reinterpret_cast<const char*>(c.pose.data()), c.pose.size() * sizeof(float));
+    out.append(reinterpret_cast<const char*>(c.control.data()), c.control.size() * sizeof(float));
+  }
+  put<uint64_t>(&out, fnv1a(out.data(), out.size()));
+  out.append(kEnd, 8);
+  return out;
+}
+
+std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim, int control_dim, const std::string& file) {
+  if (!little_endian()) throw Error("dataset caches are little-endian; this machine is not");
+  constexpr size_t kHeader = 8 + 4 * 4 + 8, kTrailer = 8 + 8;
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    throw ParseError(file, 0, "not a mosyn clip cache (bad magic)");
+  if (bytes.size() < kHeader + kTrailer)
+    throw ParseError(file, 0, "truncated cache (" + std::to_string(bytes.size()) + " bytes)");
+  if (std::memcmp(bytes.data() + bytes.size() - 8, kEnd, 8) != 0)
+    throw ParseError(file, 0, "truncated or extended cache: end marker missing");
+  const size_t data_end = bytes.size() - kTrailer;
+  uint64_t stored_hash;
+  std::memcpy(&stored_hash, bytes.data() + data_end, 8);
+  Reader r(bytes, data_end, file);
+  r.get_string(8, "magic");
+  const uint32_t version = r.get<uint32_t>("version");
+  if (version != kCacheVersion)
+    throw ParseError(file, 0, "cache version " + std::to_string(version) + " is not supported (expected " +
+                                  std::to_string(kCacheVersion) + ")");
+  const uint32_t file_pose_dim = r.get<uint32_t>("pose_dim"), file_control_dim = r.get<uint32_t>("control_dim");
+  if (static_cast<int>(file_pose_dim) != pose_dim || static_cast<int>(file_control_dim) != control_dim)
+    throw ParseError(file, 0, "cache holds features of dims (" + std::to_string(file_pose_dim) + ", " +
+                                  std::to_string(file_control_dim) + ") but dataset.json says (" +
+                                  std::to_string(pose_dim) + ", " + std::to_string(control_dim) + ")");
+  if (fnv1a(bytes.data(), data_end) != stored_hash) throw ParseError(file, 0, "cache is corrupted (hash mismatch)");
+  const uint32_t num_clips = r.get<uint32_t>("clip count");
+  const uint64_t total_frames = r.get<uint64_t>("frame count");
+  std::vector<ClipRecord> clips;
+  uint64_t frames = 0;
+  for (uint32_t i = 0; i < num_clips; ++i) {
+    ClipRecord c;
+    const uint32_t n = r.get<uint32_t>("source length");
+    c.source = r.get_string(n, "source name");
+    c.content = r.get<int32_t>("content");
+    c.style = r.get<int32_t>("style");
+    const uint8_t flags = r.get<uint8_t>("flags");
+    c.mirrored = flags & 1;
+    c.reversed = flags & 2;
+    c.num_frames = static_cast<int>(r.get<uint32_t>("frame count"));
+    if (c.num_frames < 0) throw ParseError(file, 0, "clip " + std::to_string(i) + " has a bad frame count");
+    r.get_floats(&c.pose, static_cast<uint64_t>(c.num_frames) * pose_dim, "pose data");
+    r.get_floats(&c.control, static_cast<uint64_t>(c.num_frames) * control_dim, "control data");
+    frames += static_cast<uint64_t>(c.num_frames);
+    clips.push_back(std::move(c));
+  }
+  if (r.pos() != data_end) throw ParseError(file, 0, "cache has unexpected bytes after its last clip");
+  if (frames != total_frames) throw ParseError(file, 0, "cache frame count disagrees with its clips");
+  return clips;
+}
+
+DatasetStats compute_stats(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim) {
+  auto stats = [&](bool pose, int dim, std::vector<float>* mean_out, std::vector<float>* std_out) {
+    std::vector<double> sum(dim, 0.0), sum_sq(dim, 0.0);
+    double count = 0;
+    // Two passes (mean, then squared deviations) for accuracy.
+    for (const ClipRecord& c : clips) {
+      const std::vector<float>& v = pose ? c.pose : c.control;
+      for (int t = 0; t < c.num_frames; ++t)
+        for (int k = 0; k < dim; ++k) sum[k] += v[static_cast<size_t>(t) * dim + k];
+      count += c.num_frames;
+    }
+    mean_out->assign(dim, 0.0f);
+    std_out->assign(dim, 1.0f);
+    if (count == 0) return;
+    std::vector<double> mean(dim);
+    for (int k = 0; k < dim; ++k) mean[k] = sum[k] / count;
+    for (const ClipRecord& c : clips) {
+      const std::vector<float>& v = pose ? c.pose : c.control;
+      for (int t = 0; t < c.num_frames; ++t)
+        for (int k = 0; k < dim; ++k) {
+          const double d = v[static_cast<size_t>(t) * dim + k] - mean[k];
+          sum_sq[k] += d * d;
+        }
+    }
+    for (int k = 0; k < dim; ++k) {
+      (*mean_out)[k] = static_cast<float>(mean[k]);
+      (*std_out)[k] = std::max(static_cast<float>(std::sqrt(sum_sq[k] / count)), kStdFloor);
+    }
+  };
+  DatasetStats s;
+  stats(true, pose_dim, &s.pose_mean, &s.pose_std);
+  stats(false, control_dim, &s.control_mean, &s.control_std);
+  return s;
+}
+
+void write_dataset(const std::string& dir, const DatasetInfo& info, const DatasetStats& stats,
+                   const std::vector<ClipRecord>& train, const std::vector<ClipRecord>& val, bool overwrite) {
+  const fs::path root(dir);
+  if (fs::exists(root / "dataset.json") && !overwrite)
+    throw Error(dir + ": already holds a dataset (dataset.json); pass overwrite to replace it");
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  if (ec) throw Error(dir + ": cannot create the directory: " + ec.message());
+  const int pose_dim = info.layout.pose_dim, control_dim = info.layout.control_dim;
+  {
+    io::AtomicFileWriter out((root / "train.bin").string());
+    out.write(format_clip_cache(train, pose_dim, control_dim));
+    out.commit();
+  }
+  {
+    io::AtomicFileWriter out((root / "val.bin").string());
+    out.write(format_clip_cache(val, pose_dim, control_dim));
+    out.commit();
+  }
+  io::write_json((root / "stats.json").string(), stats_to_json(stats));
+  io::write_json((root / "dataset.json").string(), info_to_json(info));  // last: marks completion
+}
+
+// ---- Dataset ----
+
+Dataset Dataset::open(const std::string& dir) {
+  const fs::path root(dir);
+  if (!fs::is_directory(root)) throw Error(dir + ": dataset directory not found");
+  const std::string info_path = (root / "dataset.json").string();
+  const std::string stats_path = (root / "stats.json").string();
+  for (const std::string& p : {info_path, stats_path, (root / "train.bin").string(), (root / "val.bin").string()})
+    if (!fs::is_regular_file(p)) throw Error(p + ": missing (prepare the dataset with `mosyn data prepare`)");
+  Dataset d;
+  d.info_ = info_from_json(io::read_json(info_path), info_path);
+  d.stats_ = stats_from_json(io::read_json(stats_path), stats_path);
+  const int pose_dim = d.info_.layout.pose_dim, control_dim = d.info_.layout.control_dim;
+  if (static_cast<int>(d.stats_.pose_mean.size()) != pose_dim ||
+      static_cast<int>(d.stats_.control_mean.size()) != control_dim)
+    throw ParseError(stats_path, 0, "statistics have dims (" + std::to_string(d.stats_.pose_mean.size()) + ", " +
+                                        std::to_string(d.stats_.control_mean.size()) + ") but dataset.json says (" +
+                                        std::to_string(pose_dim) + ", " + std::to_string(control_dim) + ")");
+  for (const char* split : {"train", "val"}) {
+    const std::string path = (root / (std::string(split) + ".bin")).string();
+    std::vector<ClipRecord> clips = parse_clip_cache(io::read_file(path), pose_dim, control_dim, path);
+    for (const ClipRecord& c : clips) {
+      if (c.content < -1 || c.content >= static_cast<int>(d.info_.content_labels.size()) || c.style < -1 ||
+          c.style >= static_cast<int>(d.info_.style_labels.size()))
+        throw ParseError(path, 0, "clip '" + c.source + "' has a label id outside dataset.json's vocabulary");
+    }
+    (std::string(split) == "train" ? d.train_ : d.val_) = std::move(clips);
+  }
+  return d;
+}
+
+const std::vector<ClipRecord>& Dataset::clips(const std::string& split) const {
+  if (split == "train") return train_;
+  if (split == "val") return val_;
+  throw Error("unknown dataset split '" + split + "' (expected train or val)");
+}
+
+std::vector<WindowRef> Dataset::windows(const std::string& split, int window_frames, int hop) const {
+  const std::vector<ClipRecord>& list = clips(split);
+  if (window_frames == 0) window_frames = info_.window_frames;
+  if (hop == 0) hop = info_.window_hop;
+  if (window_frames <= 0 || hop <= 0) throw Error("windows: window length and hop must be positive");
+  std::vector<WindowRef> out;
+  for (int c = 0; c < static_cast<int>(list.size()); ++c)
+    for (int start = 0; start + window_frames <= list[c].num_frames; start += hop) out.push_back({c, start});
+  return out;
+}
+
+// ---- Back to motion ----
+
+Clip decode_features(const DatasetInfo& info, const float* pose, const float* control, int num_frames,
+                     const Eigen::Vector3d& start_position, double start_heading_rad) {
+  Clip clip;
+  clip.skeleton = info.skeleton;
+  clip.motion = decode(info.skeleton, info.layout, pose, control, num_frames, info.fps, start_position, start_heading_rad);
+  return clip;
+}
+
+Clip decode_record(const DatasetInfo& info, const ClipRecord& record) {
+  check_record(record, info.layout.pose_dim, info.layout.control_dim);
+  return decode_features(info, record.pose.data(), record.control.data(), record.num_frames);
+}
+
+std::string dataset_summary(const Dataset& dataset) {
+  const DatasetInfo& info = dataset.info();
+  std::ostringstream out;
+  out << std::fixed;
+  out << "source:      " << info.source_dir << (info.source_layout.empty() ? "" : " (" + info.source_layout + ")") << "\n";
+  out << "fps:         " << std::setprecision(3) << info.fps << "\n";
+  out << "skeleton:    " << info.skeleton.num_joints() << " joints, root " << info.skeleton.joint_names[0]
+      << ", " << std::setprecision(6) << info.skeleton.meters_per_unit << " m/unit\n";
+  out << "features:    " << to_string(info.layout.form) << ", pose " << info.layout.pose_dim << " + control "
+      << info.layout.control_dim << "\n";
+  out << "window:      " << info.window_frames << " frames, hop " << info.window_hop << "\n";
+  out << "augment:     mirror " << (info.augment_mirror ? "yes" : "no") << ", reverse "
+      << (info.augment_reverse ? "yes" : "no") << "\n";
+  for (const char* split : {"train", "val"}) {
+    const std::vector<ClipRecord>& clips = dataset.clips(split);
+    long long frames = 0;
+    for (const ClipRecord& c : clips) frames += c.num_frames;
+    const size_t files = std::string(split) == "train" ? info.train_files.size() : info.val_files.size();
+    out << split << ":" << std::string(std::string(split) == "train" ? 7 : 9, ' ') << files << " files, "
+        << clips.size() << " clips, " << frames << " frames, " << std::setprecision(2)
+        << frames / info.fps / 3600.0 << " h, " << dataset.windows(split).size() << " windows\n";
+  }
+  auto label_counts = [&](const char* what, const std::vector<std::string>& vocabulary, bool content) {
+    if (vocabulary.empty()) return;
+    out << what << " (clips train / val):\n";
+    for (int k = 0; k < static_cast<int>(vocabulary.size()); ++k) {
+      int n_train = 0, n_val = 0;
+      for (const ClipRecord& c : dataset.clips("train")) n_train += (content ? c.content : c.style) == k;
+      for (const ClipRecord& c : dataset.clips("val")) n_val += (content ? c.content : c.style) == k;
+      out << "  " << std::left << std::setw(24) << vocabulary[k] << std::right << std::setw(6) << n_train << " / "
+          << n_val << "\n";
+    }
+  };
+  label_counts("contents", info.content_labels, true);
+  label_counts("styles", info.style_labels, false);
+  return out.str();
+}
+
+}  // namespace mosyn::data

@@ -1,0 +1,407 @@
+#include "data/prepare.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "core/error.h"
+#include "core/synthetic.h"
+#include "core/trajectory.h"
+#include "core/units.h"
+#include "data/labels.h"
+#include "io/bvh.h"
+#include "io/json_file.h"
+#include "io/atomic_file.h"
+
+namespace mosyn::data {
+namespace fs = std::filesystem;
+namespace {
+
+struct Item {
+  std::string path;    // full path
+  std::string source;  // name recorded in the dataset
+  int content = -1;
+  int style = -1;
+};
+
+// Runs body(i) for i in [0, n) on `threads` threads. If any call throws, the remaining work is
+// skipped and the exception of the lowest failing index is rethrown (deterministic messages).
+template <typename Body>
+void parallel_for(int n, int threads, Body body) {
+  std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
+  std::atomic<int> next{0};
+  std::atomic<bool> failed{false};
+  auto worker = [&] {
+    for (int i = next++; i < n && !failed; i = next++) {
+      try {
+        body(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+        failed = true;
+      }
+    }
+  };
+  const int count = std::max(1, std::min(threads, n));
+  std::vector<std::thread> pool;
+  for (int k = 1; k < count; ++k) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+int index_of(const std::vector<std::string>& v, const std::string& s) {
+  const auto it = std::find(v.begin(), v.end(), s);
+  return it == v.end() ? -1 : static_cast<int>(it - v.begin());
+}
+
+std::string join(const std::vector<std::string>& v, const std::string& sep) {
+  std::string out;
+  for (const std::string& s : v) out += (out.empty() ? "" : sep) + s;
+  return out;
+}
+
+// Topology difference between two skeletons, "" when names, parents and end sites agree.
+std::string topology_difference(const Skeleton& expected, const Skeleton& got) {
+  if (expected.num_joints() != got.num_joints())
+    return std::to_string(got.num_joints()) + " joints instead of " + std::to_string(expected.num_joints());
+  for (int j = 0; j < got.num_joints(); ++j) {
+    if (expected.joint_names[j] != got.joint_names[j])
+      return "joint " + std::to_string(j) + " is '" + got.joint_names[j] + "' instead of '" + expected.joint_names[j] + "'";
+    if (expected.parents[j] != got.parents[j])
+      return "joint '" + got.joint_names[j] + "' has parent " +
+             (got.parents[j] < 0 ? std::string("none") : "'" + got.joint_names[got.parents[j]] + "'") + " instead of " +
+             (expected.parents[j] < 0 ? std::string("none") : "'" + expected.joint_names[expected.parents[j]] + "'");
+  }
+  if (expected.end_sites.size() != got.end_sites.size())
+    return std::to_string(got.end_sites.size()) + " end sites instead of " + std::to_string(expected.end_sites.size());
+  for (size_t e = 0; e < got.end_sites.size(); ++e)
+    if (expected.end_sites[e].parent != got.end_sites[e].parent)
+      return "end site " + std::to_string(e) + " hangs off another joint";
+  return "";
+}
+
+void check_options(const PrepareOptions& o) {
+  if (o.input_dirs.empty()) throw Error("prepare: no input folder given");
+  if (o.output_dir.empty()) throw Error("prepare: no output folder given");
+  if (!(o.fps >= 0) || !std::isfinite(o.fps)) throw Error("prepare: fps must be 0 (keep) or positive");
+  if (o.window_frames <= 0) throw Error("prepare: window_frames must be positive");
+  if (o.window_hop <= 0) throw Error("prepare: window_hop must be positive");
+  if (!(o.val_fraction >= 0 && o.val_fraction < 1)) throw Error("prepare: val_fraction must be in [0, 1)");
+  if (o.threads < 1) throw Error("prepare: threads must be at least 1");
+  if (!(o.meters_per_unit >= 0) || !std::isfinite(o.meters_per_unit))
+    throw Error("prepare: meters_per_unit must be 0 (guess) or positive");
+}
+
+// Lists and filters every input; builds the shared vocabularies and the file items.
+std::vector<Item> list_inputs(const PrepareOptions& o, DatasetInfo* info) {
+  std::vector<SourceListing> listings;
+  for (const std::string& dir : o.input_dirs) listings.push_back(list_source(dir));
+
+  // A filter name must be known to some input; each input is filtered by the names it knows.
+  auto known_somewhere = [&](const std::vector<std::string>& names, bool content) {
+    for (const std::string& raw : names) {
+      const std::string name = strip_dataset_prefix(raw);
+      bool found = false;
+      std::vector<std::string> all;
+      for (const SourceListing& l : listings)
+        for (const std::string& v : content ? l.content_labels : l.style_labels) {
+          found = found || v == name;
+          if (index_of(all, v) < 0) all.push_back(v);
+        }
+      if (!found)
+        throw Error(std::string("prepare: unknown ") + (content ? "content" : "style") + " '" + name + "'" +
+                    (all.empty() ? std::string(" (the inputs have no such labels)") : " (known: " + join(all, ", ") + ")"));
+    }
+  };
+  known_somewhere(o.contents, true);
+  known_somewhere(o.styles, false);
+  for (SourceListing& l : listings) {
+    auto known_here = [&](const std::vector<std::string>& names, const std::vector<std::string>& vocabulary) {
+      std::vector<std::string> out;
+      for (const std::string& n : names)
+        if (index_of(vocabulary, strip_dataset_prefix(n)) >= 0) out.push_back(strip_dataset_prefix(n));
+      return out;
+    };
+    const std::vector<std::string> c = known_here(o.contents, l.content_labels);
+    const std::vector<std::string> s = known_here(o.styles, l.style_labels);
+    if ((!o.contents.empty() && c.empty()) || (!o.styles.empty() && s.empty()))
+      l.files.clear();  // this input has none of the wanted labels
+    else
+      filter_source(&l, c, s);
+  }
+
+  // Vocabularies: union over inputs in order, restricted to the filters when given.
+  for (const SourceListing& l : listings) {
+    for (const std::string& v : l.content_labels)
+      if (index_of(info->content_labels, v) < 0 &&
+          (o.contents.empty() || std::any_of(o.contents.begin(), o.contents.end(),
+                                             [&](const std::string& n) { return strip_dataset_prefix(n) == v; })))
+        info->content_labels.push_back(v);
+    for (const std::string& v : l.style_labels)
+      if (index_of(info->style_labels, v) < 0 &&
+          (o.styles.empty() || std::any_of(o.styles.begin(), o.styles.end(),
+                                           [&](const std::string& n) { return strip_dataset_prefix(n) == v; })))
+        info->style_labels.push_back(v);
+  }
+
+  // Source names: relative paths, prefixed by the input folder's name when there are several.
+  std::vector<std::string> prefixes;
+  std::set<std::string> layouts;
+  for (size_t k = 0; k < listings.size(); ++k) {
+    std::string name = fs::path(listings[k].dir).lexically_normal().filename().string();
+    if (name.empty() || name == ".") name = fs::path(listings[k].dir).lexically_normal().parent_path().filename().string();
+    if (index_of(prefixes, name) >= 0 || name.empty()) name = std::to_string(k) + "_" + name;
+    prefixes.push_back(name);
+    layouts.insert(to_string(listings[k].layout));
+  }
+  info->source_layout = layouts.size() == 1 ? *layouts.begin() : "mixed";
+  std::vector<Item> items;
+  for (size_t k = 0; k < listings.size(); ++k)
+    for (const SourceFile& f : listings[k].files) {
+      Item item;
+      item.path = f.path;
+      item.source = listings.size() == 1 ? f.relative : prefixes[k] + "/" + f.relative;
+      item.content = f.content.empty() ? -1 : index_of(info->content_labels, f.content);
+      item.style = f.style.empty() ? -1 : index_of(info->style_labels, f.style);
+      items.push_back(std::move(item));
+    }
+  if (items.empty()) throw Error("prepare: no BVH file left in " + join(o.input_dirs, ", ") + " after filtering");
+  return items;
+}
+
+}  // namespace
+
+DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallback& progress) {
+  check_options(o);
+  if (fs::exists(fs::path(o.output_dir) / "dataset.json") && !o.overwrite)
+    throw Error(o.output_dir + ": already holds a dataset (dataset.json); pass overwrite to replace it");
+
+  DatasetInfo info;
+  const std::vector<Item> items = list_inputs(o, &info);
+  const int n = static_cast<int>(items.size());
+  std::mutex progress_mutex;
+  int done = 0;
+  auto report = [&](const char* stage, const std::string& file) {
+    if (!progress) return;
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    PrepareProgress p;
+    p.stage = stage;
+    p.files_done = ++done;
+    p.files_total = n;
+    p.current_file = file;
+    progress(p);
+  };
+
+  // 1. Parse and clean every file.
+  std::vector<Clip> clips(static_cast<size_t>(n));
+  std::vector<std::string> raw_joint_names;
+  parallel_for(n, o.threads, [&](int i) {
+    const io::BvhFile bvh = io::read_bvh(items[i].path);
+    Clip clip = io::to_clip(bvh);
+    if (i == 0) raw_joint_names = clip.skeleton.joint_names;
+    clip = collapse_static_root(clip);
+    try {
+      clip = subset_by_patterns(clip, o.drop_joint_patterns, o.keep_joint_patterns);
+    } catch (const Error& e) {
+      throw Error(items[i].path + ": " + e.what());
+    }
+    clip.motion = remove_tpose(clip.motion, o.tpose);
+    if (o.fps > 0) clip.motion = resample(clip.motion, o.fps);
+    clips[i] = std::move(clip);
+    report("parse", items[i].source);
+  });
+
+  // 2. Same topology everywhere; one frame rate.
+  const Skeleton& first = clips[0].skeleton;
+  for (int i = 1; i < n; ++i) {
+    const std::string diff = topology_difference(first, clips[i].skeleton);
+    if (!diff.empty())
+      throw Error(items[i].path + ": skeleton differs from " + items[0].path + ": " + diff +
+                  " (all files of a dataset must share one hierarchy; drop differing joints with joint patterns)");
+    if (std::abs(clips[i].motion.fps - clips[0].motion.fps) > 1e-3 * clips[0].motion.fps)
+      throw Error(items[i].path + ": frame rate " + std::to_string(clips[i].motion.fps) + " differs from " +
+                  std::to_string(clips[0].motion.fps) + " in " + items[0].path + "; set a target fps");
+  }
+
+  // 3. Dataset skeleton: mean offsets; bone lengths must stay near the mean.
+  Skeleton skeleton = first;
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Clip& c : clips) sum += c.skeleton.offsets[j];
+    skeleton.offsets[j] = sum / n;
+  }
+  for (size_t e = 0; e < skeleton.end_sites.size(); ++e) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Clip& c : clips) sum += c.skeleton.end_sites[e].offset;
+    skeleton.end_sites[e].offset = sum / n;
+  }
+  double size = 0;
+  for (const Eigen::Vector3d& v : skeleton.offsets) size += v.norm();
+  for (int i = 0; i < n; ++i)
+    for (int j = 1; j < skeleton.num_joints(); ++j) {
+      const double mean = skeleton.offsets[j].norm(), len = clips[i].skeleton.offsets[j].norm();
+      if (std::abs(len - mean) > kMaxBoneLengthDeviation * mean + 1e-6 * size)
+        throw Error(items[i].path + ": bone to '" + skeleton.joint_names[j] + "' is " + std::to_string(len) +
+                    " units long, the dataset mean is " + std::to_string(mean) + " (more than " +
+                    std::to_string(static_cast<int>(kMaxBoneLengthDeviation * 100)) +
+                    "% off: a different skeleton or unit?)");
+    }
+  skeleton.meters_per_unit = o.meters_per_unit > 0 ? o.meters_per_unit : guess_meters_per_unit(skeleton);
+  for (Clip& c : clips) c.skeleton.meters_per_unit = skeleton.meters_per_unit;
+
+  info.version = 1;
+  info.fps = clips[0].motion.fps;
+  info.skeleton = skeleton;
+  info.layout = make_layout(skeleton, o.form, 0, estimate_forward_in_root(skeleton));
+  info.window_frames = o.window_frames;
+  info.window_hop = o.window_hop;
+  info.source_dirs = o.input_dirs;
+  info.source_dir = join(o.input_dirs, ";");
+  info.augment_mirror = o.mirror;
+  info.augment_reverse = o.reverse;
+  info.tpose = to_string(o.tpose);
+  info.drop_joint_patterns = o.drop_joint_patterns;
+  info.keep_joint_patterns = o.keep_joint_patterns;
+  info.source_joint_names = raw_joint_names;
+
+  // 4. Split by file: a seeded Fisher-Yates shuffle (own index mapping, so the split is the same
+  // on every standard library); the first num_val shuffled files are held out.
+  std::vector<int> order(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) order[i] = i;
+  std::mt19937_64 rng(o.seed);
+  for (int i = n - 1; i > 0; --i) std::swap(order[i], order[static_cast<size_t>(rng() % static_cast<uint64_t>(i + 1))]);
+  int num_val = static_cast<int>(std::lround(o.val_fraction * n));
+  if (o.val_fraction > 0 && num_val == 0 && n >= 2) num_val = 1;
+  num_val = std::min(num_val, n - 1);
+  std::vector<bool> is_val(static_cast<size_t>(n), false);
+  for (int k = 0; k < num_val; ++k) is_val[order[k]] = true;
+  for (int i = 0; i < n; ++i) (is_val[i] ? info.val_files : info.train_files).push_back(items[i].source);
+
+  // 5. Features, with augmentation copies next to their original.
+  const MirrorPlan plan = plan_mirror(skeleton);
+  auto mirrored_id = [](int id, const std::vector<std::string>& vocabulary) {
+    if (id < 0) return id;
+    const int other = index_of(vocabulary, mirrored_label(vocabulary[id]));
+    return other >= 0 ? other : id;
+  };
+  std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
+  done = 0;
+  parallel_for(n, o.threads, [&](int i) {
+    const Clip clip = std::move(clips[i]);
+    auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
+      ClipRecord r;
+      r.source = items[i].source;
+      r.content = mirrored ? mirrored_id(items[i].content, info.content_labels) : items[i].content;
+      r.style = mirrored ? mirrored_id(items[i].style, info.style_labels) : items[i].style;
+      r.mirrored = mirrored;
+      r.reversed = reversed;
+      r.num_frames = motion.num_frames;
+      encode(clip.skeleton, motion, info.layout, &r.pose, &r.control);
+      records[i].push_back(std::move(r));
+    };
+    try {
+      add(clip.motion, false, false);
+      Motion mirrored;
+      if (o.mirror) {
+        mirrored = mirror(clip.skeleton, clip.motion, plan);
+        add(mirrored, true, false);
+      }
+      if (o.reverse) {
+        add(reverse_frames(clip.motion), false, true);
+        if (o.mirror) add(reverse_frames(mirrored), true, true);
+      }
+    } catch (const Error& e) {
+      throw Error(items[i].path + ": " + e.what());
+    }
+    clips[i] = Clip();
+    report("encode", items[i].source);
+  });
+
+  std::vector<ClipRecord> train, val;
+  for (int i = 0; i < n; ++i)
+    for (ClipRecord& r : records[i]) (is_val[i] ? val : train).push_back(std::move(r));
+  const DatasetStats stats = compute_stats(train, info.layout.pose_dim, info.layout.control_dim);
+  write_dataset(o.output_dir, info, stats, train, val, o.overwrite);
+  if (progress) {
+    PrepareProgress p;
+    p.stage = "write";
+    p.files_done = p.files_total = n;
+    progress(p);
+  }
+  return info;
+}
+
+void write_synthetic_source(const std::string& dir, int takes_per_label, int num_frames, std::uint64_t seed) {
+  if (takes_per_label < 1 || num_frames < 3) throw Error("write_synthetic_source: need at least 1 take and 3 frames");
+  const std::vector<std::string> contents = {"walk", "walk-turn-left", "walk-turn-right", "run"};
+  const std::vector<std::string> styles = {"normal", "brisk"};
+  const fs::path root(dir);
+  std::error_code ec;
+  fs::create_directories(root / "cfg", ec);
+  fs::create_directories(root / "data", ec);
+  if (ec) throw Error(dir + ": cannot create the directory: " + ec.message());
+  std::string content_text, style_text;
+  for (const std::string& c : contents) content_text += "dataset-9_" + c + "\n";
+  for (const std::string& s : styles) style_text += "dataset-9_" + s + "\n";
+  io::write_file_atomically((root / "cfg" / "content_label.txt").string(), content_text);
+  io::write_file_atomically((root / "cfg" / "style_label.txt").string(), style_text);
+
+  // Bandai-like skeleton: a static joint_Root above the biped's Hips.
+  const Skeleton biped = make_synthetic_biped();
+  Skeleton skeleton;
+  skeleton.joint_names.push_back("joint_Root");
+  skeleton.parents.push_back(-1);
+  skeleton.offsets.push_back(Eigen::Vector3d::Zero());
+  for (int j = 0; j < biped.num_joints(); ++j) {
+    skeleton.joint_names.push_back(biped.joint_names[j]);
+    skeleton.parents.push_back(biped.parents[j] + 1);
+    skeleton.offsets.push_back(biped.offsets[j]);
+  }
+  for (const EndSite& e : biped.end_sites) skeleton.end_sites.push_back({e.parent + 1, e.offset});
+  skeleton.meters_per_unit = biped.meters_per_unit;
+  io::BvhFile layout_template;
+  layout_template.skeleton = skeleton;
+  const io::BvhChannelLayout six = {io::BvhChannel::kXposition, io::BvhChannel::kYposition, io::BvhChannel::kZposition,
+                                    io::BvhChannel::kZrotation, io::BvhChannel::kXrotation, io::BvhChannel::kYrotation};
+  layout_template.channels.assign(skeleton.num_joints(), six);
+
+  for (size_t c = 0; c < contents.size(); ++c)
+    for (size_t s = 0; s < styles.size(); ++s)
+      for (int take = 1; take <= takes_per_label; ++take) {
+        SyntheticWalkOptions w;
+        const bool run = contents[c] == "run";
+        const bool brisk = styles[s] == "brisk";
+        w.speed_mps = (run ? 3.0 : 1.2) * (brisk ? 1.25 : 1.0) + 0.05 * take;
+        w.cycle_hz = (run ? 1.4 : 0.9) * (brisk ? 1.15 : 1.0);
+        w.leg_swing_rad = run ? 0.7 : 0.45;
+        w.turn_rate_rad_s = contents[c] == "walk-turn-left" ? 0.6 : contents[c] == "walk-turn-right" ? -0.6 : 0.0;
+        w.start_heading_rad = 0.3 * take + static_cast<double>(c);
+        w.noise_rad = 0.01;
+        w.seed = seed * 1000 + c * 100 + s * 10 + take;
+        const Motion walk = make_synthetic_walk(biped, num_frames, 30.0, w);
+        Clip clip;
+        clip.skeleton = skeleton;
+        clip.motion = Motion::rest(skeleton, num_frames, 30.0);
+        for (int t = 0; t < num_frames; ++t)
+          for (int j = 0; j < biped.num_joints(); ++j) {
+            clip.motion.rotation(t, j + 1) = walk.rotation(t, j);
+            clip.motion.translation(t, j + 1) = walk.translation(t, j);
+          }
+        char name[128];
+        std::snprintf(name, sizeof(name), "dataset-9_%s_%s_%03d", contents[c].c_str(), styles[s].c_str(), take);
+        io::write_bvh((root / "data" / (std::string(name) + ".bvh")).string(), io::from_clip(clip, &layout_template));
+        io::write_json((root / "data" / (std::string(name) + ".json")).string(),
+                       nlohmann::json{{"content", static_cast<int>(c)}, {"style", static_cast<int>(s)}});
+      }
+}
+
+}  // namespace mosyn::data

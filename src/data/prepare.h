@@ -1,0 +1,77 @@
+// `mosyn data prepare`: BVH folders -> a dataset directory (data/dataset.h).
+//
+// Pipeline for every BVH file (parsed in parallel):
+//   read_bvh -> to_clip -> collapse_static_root (Bandai-Namco's joint_Root: Hips becomes the
+//   root) -> joint subset by glob patterns -> T-pose removal -> resample to fps
+// then, over all files: same topology check (joint names and parents, after the steps above),
+// dataset skeleton = mean offsets over files, bone-length check (each file's bones within
+// kMaxBoneLengthDeviation of the mean), units guess (core/units.h) unless overridden, split by
+// file, encode (every file on its own offsets, so positions form carries the subject's true
+// joint positions; decode uses the mean skeleton), augmentation copies, training statistics,
+// atomic writes.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/skeleton.h"
+#include "data/augment.h"
+#include "data/dataset.h"
+#include "data/representation.h"
+
+namespace mosyn::data {
+
+// A file's bone may differ from the dataset's mean length by this fraction at most (CMU
+// subjects differ by ~10%; more suggests a different skeleton or unit).
+constexpr double kMaxBoneLengthDeviation = 0.25;
+
+struct PrepareOptions {
+  std::vector<std::string> input_dirs;  // source folders (data/labels.h layouts), at least one
+  std::string output_dir;
+  double fps = 0;                       // target frame rate, 0 = keep the files' own (must agree)
+  PoseForm form = PoseForm::kRotations;
+  std::vector<std::string> drop_joint_patterns;  // glob patterns of joints to drop (e.g. "*Thumb*")
+  std::vector<std::string> keep_joint_patterns;  // if non-empty, only matching joints (+ the root)
+  int window_frames = 120;              // training window length, frames at the target fps
+  int window_hop = 30;                  // frames between window starts
+  bool mirror = false;                  // add mirrored copies (labels with left/right swapped)
+  bool reverse = false;                 // add time-reversed copies (and of mirrored ones)
+  double val_fraction = 0.1;            // fraction of files held out, in [0, 1)
+  std::uint64_t seed = 0;               // split seed
+  std::vector<std::string> contents;    // keep only these content labels (empty: all)
+  std::vector<std::string> styles;      // keep only these style labels (empty: all)
+  int threads = 2;                      // parsing threads (>= 1)
+  TposeMode tpose = TposeMode::kAuto;
+  double meters_per_unit = 0;           // 0 = guess (core/units.h); e.g. 0.01 for centimetres
+  bool overwrite = false;               // replace an existing dataset in output_dir
+};
+
+struct PrepareProgress {
+  std::string stage;        // "parse", "encode" or "write"
+  int files_done = 0;
+  int files_total = 0;
+  std::string current_file;  // relative path of the file just finished ("" for "write")
+};
+
+using PrepareProgressCallback = std::function<void(const PrepareProgress&)>;
+
+// Prepares the dataset and returns its description (as written to dataset.json). The callback,
+// when given, is called once per file per stage and once for "write"; calls are serialised but
+// may come from worker threads. Throws mosyn::Error / ParseError naming the file at fault: bad
+// options, unreadable or malformed BVH, a topology mismatch (first mismatching file and what
+// differs), bone lengths off the mean, frame rates that differ while fps = 0, no file left after
+// filtering, an existing dataset without overwrite. Nothing is written when it throws.
+DatasetInfo prepare_dataset(const PrepareOptions& options, const PrepareProgressCallback& progress = {});
+
+// Writes a small Bandai-Namco-like source folder of synthetic walks (core/synthetic.h) for tests
+// and demos: <dir>/cfg/content_label.txt ("dataset-9_walk", "dataset-9_walk-turn-left",
+// "dataset-9_walk-turn-right", "dataset-9_run"), cfg/style_label.txt ("dataset-9_normal",
+// "dataset-9_brisk"), and data/dataset-9_<content>_<style>_<take>.bvh plus .json labels.
+// Skeletons carry a static joint_Root above Hips and six channels per joint, as Bandai-Namco's.
+// takes_per_label files per (content, style) pair, num_frames frames at 30 fps each.
+void write_synthetic_source(const std::string& dir, int takes_per_label = 2, int num_frames = 90,
+                            std::uint64_t seed = 1);
+
+}  // namespace mosyn::data
