@@ -12,14 +12,16 @@ namespace mosyn::data {
 
 // ---- Static root -------------------------------------------------------------------------
 
-// True when joint 0 has exactly one child joint and, in every frame, identity rotation (within
-// 1e-6 rad) and a constant translation (within 1e-6 of the skeleton's size): a placeholder root
-// like Bandai-Namco's `joint_Root`, which stays at the origin while `Hips` carries the motion.
+// True when joint 0 has exactly one child joint and identity rotation (within 1e-6 rad) in
+// every frame: a placeholder root like Bandai-Namco's `joint_Root` above `Hips`. Its translation
+// may move (constant zero in Bandai-Namco dataset 2, partly carrying the forward motion in
+// dataset 1): collapsing folds it into the child exactly.
 bool has_static_root(const Clip& clip);
 
-// The clip without its static root, so its single child (Hips) becomes joint 0 with unchanged
-// world transforms (its offset and translations absorb the root's constant translation); the clip unchanged when has_static_root is false. prepare
-// applies this automatically, so Bandai-Namco datasets are rooted at Hips.
+// The clip without its placeholder root, so its single child (Hips) becomes joint 0 with
+// unchanged world transforms (the child's offset and per-frame translations absorb the root's
+// translation); the clip unchanged when has_static_root is false. prepare applies this
+// automatically, so Bandai-Namco datasets are rooted at Hips.
 Clip collapse_static_root(const Clip& clip);
 
 // ---- Converter T-pose ---------------------------------------------------------------------

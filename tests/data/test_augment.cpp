@@ -146,11 +146,20 @@ TEST(Augment, StaticRootCollapses) {
   EXPECT_EQ(collapsed.skeleton.parents, biped.parents);
   EXPECT_EQ(collapsed.skeleton.end_sites.size(), biped.end_sites.size());
   EXPECT_LT(max_motion_difference(collapsed.motion, walk), 1e-12);
-  // A root that moves is not static.
+  // A root that only translates (Bandai-Namco dataset 1) folds into Hips.
   Clip moving = clip;
   moving.motion.translation(5, 0) = Eigen::Vector3d(1, 0, 0);
-  EXPECT_FALSE(has_static_root(moving));
-  EXPECT_EQ(collapse_static_root(moving).skeleton.num_joints(), clip.skeleton.num_joints());
+  ASSERT_TRUE(has_static_root(moving));
+  const Clip folded = collapse_static_root(moving);
+  const WorldPoses wa = forward_kinematics(moving.skeleton, moving.motion);
+  const WorldPoses wb = forward_kinematics(folded.skeleton, folded.motion);
+  for (int t = 0; t < 20; ++t)
+    for (int j = 0; j < biped.num_joints(); ++j) EXPECT_LT((wa.position(t, j + 1) - wb.position(t, j)).norm(), 1e-9);
+  // A root that rotates is kept.
+  Clip rotating = clip;
+  rotating.motion.rotation(3, 0) = Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()));
+  EXPECT_FALSE(has_static_root(rotating));
+  EXPECT_EQ(collapse_static_root(rotating).skeleton.num_joints(), clip.skeleton.num_joints());
   EXPECT_FALSE(has_static_root(collapsed));
 }
 
