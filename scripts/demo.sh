@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# The main job, run by `make demo`: real motion capture in, training data and files out.
+# Usage: demo.sh BUILD_DIR SHARED_DATA_DIR CACHE_DIR
+set -euo pipefail
+build=$1 shared=$2 cache=$3
+mosyn="$build/mosyn"
+out=demo-out
+mkdir -p "$out"
+
+if [ ! -f "$shared/bandai-namco-motion.tar.gz" ]; then
+  echo "demo: $shared/bandai-namco-motion.tar.gz not found; set DATA_DIR=... to the folder holding the archives" >&2
+  exit 1
+fi
+echo "== unpacking motion capture into $cache/data (once)"
+bash "$(dirname "$0")/unpack_data.sh" "$shared" "$cache/data"
+bandai="$cache/data/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
+clip="$bandai/data/dataset-2_walk-turn-left_normal_001.bvh"
+
+echo "== mosyn info"
+"$mosyn" info "$clip"
+
+echo "== mosyn convert: BVH (resampled to 15 fps), world positions as NPY and CSV"
+"$mosyn" convert "$clip" "$out/walk-turn-left_15fps.bvh" --fps 15
+"$mosyn" convert "$clip" "$out/walk-turn-left_positions.npy" --positions
+"$mosyn" convert "$clip" "$out/walk-turn-left_positions.csv" --positions
+
+echo "== mosyn data prepare: Bandai-Namco locomotion (walk, turns, run; all styles)"
+dataset="$cache/datasets/bandai-locomotion"
+if [ ! -f "$dataset/dataset.json" ]; then
+  "$mosyn" data prepare "$bandai" --out "$dataset" --contents walk,walk-turn-left,walk-turn-right,run \
+    --fps 30 --window 120 --hop 30 --mirror
+fi
+"$mosyn" data info "$dataset"
+
+echo
+echo "demo: wrote $(ls "$out" | wc -l) files to $out/ and the dataset to $dataset"

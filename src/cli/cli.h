@@ -1,0 +1,50 @@
+// Shared pieces of the `mosyn` command line: error kinds, progress rendering, registration of
+// sub-commands. Only main() turns errors into exit codes.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace mosyn::cli {
+
+// A wrong flag value or flag combination found after parsing: exit code 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Renders progress on stderr: a single rewritten line on a terminal, plain lines otherwise
+// (at most one every few seconds, so logs stay short).
+class ProgressLine {
+ public:
+  ProgressLine();
+  ~ProgressLine();
+  // Shows `text`; `force` prints even when throttled (e.g. the final state).
+  void update(const std::string& text, bool force = false);
+  // Ends the rewritten line so later output starts on a fresh line.
+  void finish();
+
+ private:
+  bool tty_;
+  bool open_ = false;
+  std::chrono::steady_clock::time_point last_;
+  bool printed_any_ = false;
+};
+
+// "1h02m", "3m05s", "12.3s".
+std::string format_duration(double seconds);
+
+// Each command group adds its sub-commands and the action to run once parsing succeeded.
+using Action = std::function<void()>;
+void add_info_command(CLI::App& app, Action* action);
+void add_convert_command(CLI::App& app, Action* action);
+void add_data_commands(CLI::App& app, Action* action);
+void add_model_commands(CLI::App& app, Action* action);  // train, sample
+
+// Number of hardware threads, at least 1.
+int default_threads();
+
+}  // namespace mosyn::cli

@@ -1,0 +1,120 @@
+// `mosyn data prepare` and `mosyn data info`.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "cli/cli.h"
+#include "data/dataset.h"
+#include "data/prepare.h"
+
+namespace mosyn::cli {
+namespace {
+
+std::vector<std::string> split_commas(const std::string& text) {
+  std::vector<std::string> out;
+  std::string item;
+  for (char c : text + ",") {
+    if (c == ',') {
+      if (!item.empty()) out.push_back(item);
+      item.clear();
+    } else if (c != ' ') {
+      item += c;
+    }
+  }
+  return out;
+}
+
+struct PrepareArgs {
+  data::PrepareOptions options;
+  std::string form = "rotations";
+  std::string tpose = "auto";
+  std::string contents, styles, drop_joints, joints;
+  bool drop_fingers = false;
+};
+
+void run_prepare(PrepareArgs& a) {
+  data::PrepareOptions& o = a.options;
+  try {
+    o.form = data::parse_pose_form(a.form);
+    o.tpose = data::parse_tpose_mode(a.tpose);
+  } catch (const std::exception& e) {
+    throw UsageError(e.what());
+  }
+  if (o.window_frames < 2) throw UsageError("--window must be at least 2 frames");
+  if (o.window_hop < 1) throw UsageError("--hop must be at least 1 frame");
+  if (o.val_fraction < 0 || o.val_fraction >= 1) throw UsageError("--val must be in [0, 1)");
+  if (o.threads < 1) throw UsageError("--threads must be at least 1");
+  if (o.fps < 0) throw UsageError("--fps must be positive");
+  o.contents = split_commas(a.contents);
+  o.styles = split_commas(a.styles);
+  o.drop_joint_patterns = split_commas(a.drop_joints);
+  o.keep_joint_patterns = split_commas(a.joints);
+  if (a.drop_fingers)
+    for (const char* p : {"*Thumb*", "*Index*", "*Middle*", "*Ring*", "*Pinky*", "*HandEnd*", "*Finger*"})
+      o.drop_joint_patterns.push_back(p);
+
+  ProgressLine progress;
+  const auto start = std::chrono::steady_clock::now();
+  const data::DatasetInfo info = data::prepare_dataset(o, [&](const data::PrepareProgress& p) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char line[256];
+    std::snprintf(line, sizeof line, "%-6s %d/%d files  %s", p.stage.c_str(), p.files_done, p.files_total,
+                  format_duration(elapsed).c_str());
+    progress.update(line, p.files_done == p.files_total);
+  });
+  progress.finish();
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::fprintf(stderr, "prepared %s in %s: %zu train files, %zu validation files\n", o.output_dir.c_str(),
+               format_duration(elapsed).c_str(), info.train_files.size(), info.val_files.size());
+  std::printf("%s", data::dataset_summary(data::Dataset::open(o.output_dir)).c_str());
+}
+
+}  // namespace
+
+void add_data_commands(CLI::App& app, Action* action) {
+  CLI::App* data_cmd = app.add_subcommand("data", "Prepare and inspect training datasets");
+  data_cmd->require_subcommand(1);
+
+  auto a = std::make_shared<PrepareArgs>();
+  data::PrepareOptions& o = a->options;
+  o.threads = default_threads();
+  CLI::App* prep = data_cmd->add_subcommand(
+      "prepare",
+      "BVH folder(s) -> dataset directory: resampling, T-pose removal, joint subset, windows, augmentation, "
+      "statistics, label vocabularies, train/validation split by file, binary cache");
+  prep->add_option("input", o.input_dirs,
+                   "source folder(s): Bandai-Namco layout (cfg/ + data/*.bvh + .json labels), CMU subset layout "
+                   "(index.csv + bvh/), or a plain folder of BVH")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  prep->add_option("--out,-o", o.output_dir, "dataset directory to write")->required();
+  prep->add_option("--form", a->form, "pose form: rotations (joint rotations, writes BVH) or positions")
+      ->capture_default_str();
+  prep->add_option("--fps", o.fps, "target frame rate (default: keep the files' own)");
+  prep->add_option("--window", o.window_frames, "training window length in frames")->capture_default_str();
+  prep->add_option("--hop", o.window_hop, "frames between window starts (overlap = window - hop)")
+      ->capture_default_str();
+  prep->add_flag("--mirror", o.mirror, "add left/right mirrored copies (labels swapped accordingly)");
+  prep->add_flag("--reverse", o.reverse, "add time-reversed copies");
+  prep->add_option("--val", o.val_fraction, "fraction of files held out for validation")->capture_default_str();
+  prep->add_option("--seed", o.seed, "seed of the train/validation split")->capture_default_str();
+  prep->add_option("--contents", a->contents, "keep only these content labels, comma-separated (e.g. walk,run)");
+  prep->add_option("--styles", a->styles, "keep only these style labels, comma-separated");
+  prep->add_option("--joints", a->joints, "keep only joints matching these comma-separated globs (+ the root)");
+  prep->add_option("--drop-joints", a->drop_joints, "drop joints matching these comma-separated globs");
+  prep->add_flag("--drop-fingers", a->drop_fingers, "drop finger and thumb joints");
+  prep->add_option("--tpose", a->tpose, "drop a converter T-pose in frame 0: auto, on or off")->capture_default_str();
+  prep->add_option("--units-m", o.meters_per_unit, "metres per file unit (default: guessed from body size)");
+  prep->add_option("--threads", o.threads, "parsing threads (default: all cores)");
+  prep->add_flag("--overwrite", o.overwrite, "replace an existing dataset in --out");
+  prep->callback([action, a] { *action = [a] { run_prepare(*a); }; });
+
+  auto dir = std::make_shared<std::string>();
+  CLI::App* info = data_cmd->add_subcommand("info", "Print a dataset's size, feature dimensions and labels");
+  info->add_option("dataset", *dir, "dataset directory")->required();
+  info->callback([action, dir] {
+    *action = [dir] { std::printf("%s", data::dataset_summary(data::Dataset::open(*dir)).c_str()); };
+  });
+}
+
+}  // namespace mosyn::cli

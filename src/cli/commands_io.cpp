@@ -1,0 +1,160 @@
+// `mosyn info` and `mosyn convert`.
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli/cli.h"
+#include "core/error.h"
+#include "core/kinematics.h"
+#include "core/units.h"
+#include "data/augment.h"
+#include "io/bvh.h"
+#include "io/csv.h"
+#include "io/json_file.h"
+#include "io/npy.h"
+
+namespace mosyn::cli {
+namespace {
+
+std::string extension_of(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  const auto dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string ext = path.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::string item;
+  for (char c : text + ",") {
+    if (c == ',') {
+      if (!item.empty()) out.push_back(item);
+      item.clear();
+    } else if (c != ' ') {
+      item += c;
+    }
+  }
+  return out;
+}
+
+void run_info(const std::string& path) {
+  const io::BvhFile bvh = io::read_bvh(path);
+  const Skeleton& skeleton = bvh.skeleton;
+  const UnitsGuess units = guess_units(skeleton);
+  const double fps = 1.0 / bvh.frame_time_s;
+  std::printf("file:      %s\n", path.c_str());
+  std::printf("joints:    %d (+%zu end sites), root '%s'\n", skeleton.num_joints(), skeleton.end_sites.size(),
+              skeleton.joint_names[0].c_str());
+  std::printf("channels:  %d per frame\n", bvh.num_channels());
+  std::printf("frames:    %d\n", bvh.num_frames);
+  std::printf("fps:       %.6g (frame time %.9g s)\n", fps, bvh.frame_time_s);
+  std::printf("duration:  %.3f s\n", bvh.num_frames > 0 ? (bvh.num_frames - 1) * bvh.frame_time_s : 0.0);
+  std::printf("units:     %s, guessed from an estimated height of %.2f m\n", units.name.c_str(),
+              units.height_units * units.meters_per_unit);
+  std::printf("hierarchy:\n");
+  std::vector<int> depth(skeleton.num_joints(), 0);
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    if (j > 0) depth[j] = depth[skeleton.parents[j]] + 1;
+    std::string channels;
+    for (io::BvhChannel c : bvh.channels[j]) channels += std::string(channels.empty() ? "" : " ") + io::to_string(c);
+    std::printf("  %*s%-*s %s\n", 2 * depth[j], "", 24 - 2 * depth[j] > 1 ? 24 - 2 * depth[j] : 1,
+                skeleton.joint_names[j].c_str(), channels.c_str());
+  }
+}
+
+struct ConvertOptions {
+  std::string input, output;
+  double fps = 0;
+  std::string joints, drop_joints;
+  bool positions = false;
+  bool metres = false;
+};
+
+void run_convert(const ConvertOptions& o) {
+  const std::string ext = extension_of(o.output);
+  if (ext != "bvh" && ext != "npy" && ext != "csv" && ext != "json")
+    throw UsageError("output '" + o.output + "' must end in .bvh, .npy, .csv or .json");
+  if ((ext == "npy" || ext == "csv") && !o.positions)
+    throw UsageError(".npy and .csv outputs hold world joint positions: add --positions");
+  if (ext == "bvh" && o.positions) throw UsageError("--positions does not apply to .bvh output");
+  if (o.fps < 0) throw UsageError("--fps must be positive");
+
+  const io::BvhFile bvh = io::read_bvh(o.input);
+  Clip clip = io::to_clip(bvh);
+  const bool reshaped = !o.joints.empty() || !o.drop_joints.empty();
+  if (reshaped) clip = data::subset_by_patterns(clip, split_list(o.drop_joints), split_list(o.joints));
+  if (o.fps > 0) clip.motion = data::resample(clip.motion, o.fps);
+
+  if (ext == "bvh") {
+    // Keep the source's channel layout when the joints are the same.
+    io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));
+    return;
+  }
+  const double scale = o.metres ? guess_units(clip.skeleton).meters_per_unit : 1.0;
+  const WorldPoses poses = forward_kinematics(clip.skeleton, clip.motion);
+  const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
+  std::vector<Eigen::Vector3d> positions = poses.positions;
+  for (auto& p : positions) p *= scale;
+  if (ext == "npy") {
+    std::vector<float> values;
+    values.reserve(positions.size() * 3);
+    for (const auto& p : positions)
+      for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k]));
+    io::write_npy(o.output, {num_frames, num_joints, 3}, values);
+  } else if (ext == "csv") {
+    io::write_positions_csv(o.output, clip.skeleton.joint_names, num_frames, positions);
+  } else {
+    nlohmann::json j;
+    j["source"] = o.input;
+    j["fps"] = clip.motion.fps;
+    j["num_frames"] = num_frames;
+    j["units"] = o.metres ? "metres" : "file units";
+    j["joints"] = clip.skeleton.joint_names;
+    j["parents"] = clip.skeleton.parents;
+    nlohmann::json offsets = nlohmann::json::array(), frames = nlohmann::json::array();
+    for (const auto& v : clip.skeleton.offsets) offsets.push_back({v.x() * scale, v.y() * scale, v.z() * scale});
+    j["offsets"] = offsets;
+    for (int t = 0; t < num_frames; ++t) {
+      nlohmann::json frame = nlohmann::json::array();
+      for (int k = 0; k < num_joints; ++k) {
+        const auto& p = positions[static_cast<size_t>(t) * num_joints + k];
+        frame.push_back({p.x(), p.y(), p.z()});
+      }
+      frames.push_back(std::move(frame));
+    }
+    j["positions"] = frames;  // [T][J][3]
+    io::write_json(o.output, j, -1);
+  }
+  std::fprintf(stderr, "wrote %s: %d frames x %d joints, positions in %s\n", o.output.c_str(), num_frames, num_joints,
+               o.metres ? "metres" : "the file's units");
+}
+
+}  // namespace
+
+void add_info_command(CLI::App& app, Action* action) {
+  auto path = std::make_shared<std::string>();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a BVH file: joints, channels, frames, fps, duration, units");
+  cmd->add_option("file", *path, "BVH file")->required();
+  cmd->callback([action, path] { *action = [path] { run_info(*path); }; });
+}
+
+void add_convert_command(CLI::App& app, Action* action) {
+  auto o = std::make_shared<ConvertOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "convert", "Convert a BVH file to BVH (resampled / fewer joints), or world joint positions as NPY, CSV or JSON");
+  cmd->add_option("input", o->input, "input BVH file")->required();
+  cmd->add_option("output", o->output, "output file: .bvh, .npy, .csv or .json")->required();
+  cmd->add_option("--fps", o->fps, "resample to this frame rate (slerp)");
+  cmd->add_option("--joints", o->joints, "keep only joints matching these comma-separated names/globs (+ the root)");
+  cmd->add_option("--drop-joints", o->drop_joints, "drop joints matching these comma-separated globs, e.g. '*Thumb*'");
+  cmd->add_flag("--positions", o->positions,
+                "write world joint positions: NPY float32 [T,J,3] in BVH joint order (End Sites excluded), "
+                "CSV 'frame,joint,x,y,z', or JSON");
+  cmd->add_flag("--metres", o->metres, "scale positions to metres (units guessed from the skeleton's size)");
+  cmd->callback([action, o] { *action = [o] { run_convert(*o); }; });
+}
+
+}  // namespace mosyn::cli
