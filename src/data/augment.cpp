@@ -97,7 +97,7 @@ Clip collapse_static_root(const Clip& clip) {
 
 // ---- T-pose ----
 
-constexpr int kMaxTposeFrames = 4;
+constexpr int kMaxTposeFrames = 10;
 
 const char* to_string(TposeMode mode) {
   switch (mode) {

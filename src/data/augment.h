@@ -36,10 +36,11 @@ const char* to_string(TposeMode mode);
 TposeMode parse_tpose_mode(const std::string& text);
 
 // Number of leading frames that are a rest pose glued in front of the motion (0 if none): the
-// first f <= 4 frames all have non-root local rotations close to identity (mean geodesic angle
+// first f <= 10 frames all have non-root local rotations close to identity (mean geodesic angle
 // < 0.15 rad, none above 0.5 rad), frame f does not, and the jump from frame f-1 to f (mean
 // non-root angle > 0.1 rad) is more than five times the change from f to f+1. Usually 1 (CMU's
-// converter T-pose); CMU 07_12 has 2 (a T-pose, then an all-zero frame at the origin).
+// converter T-pose); CMU 07_12 has 2 and 09_10 has 5 (a T-pose, then all-zero frames at the
+// origin).
 int count_leading_rest_frames(const Motion& motion);
 // count_leading_rest_frames(motion) > 0.
 bool looks_like_tpose(const Motion& motion);

@@ -10,6 +10,7 @@
 #include "core/synthetic.h"
 #include "core/trajectory.h"
 #include "core/units.h"
+#include "data/labels.h"
 #include "data/representation.h"
 #include "io/bvh.h"
 
@@ -212,6 +213,38 @@ TEST(RealDataAugment, BandaiMirrorAndCmuTpose) {
   const Motion at30 = resample(remove_tpose(c.motion, TposeMode::kAuto), 30.0);
   EXPECT_NEAR(at30.fps, 30.0, 1e-12);
   EXPECT_NEAR(at30.num_frames, (c.motion.num_frames - 1) / 4.0, 2.0);
+}
+
+TEST(RealDataAugment, TposeFoundInEveryCmuFileAndNoBandaiFile) {
+  const std::string cmu = data_cache() + "/cmu-mocap-subset";
+  const std::string bandai = data_cache() + "/bandai-namco/Bandai-Namco-Research-Motiondataset-2";
+  if (!std::filesystem::exists(cmu) || !std::filesystem::exists(bandai)) GTEST_SKIP() << "shared data not unpacked";
+  const SourceListing c = list_source(cmu);
+  EXPECT_EQ(c.files.size(), 81u);
+  for (const SourceFile& f : c.files) {
+    const int n = count_leading_rest_frames(io::to_clip(io::read_bvh(f.path)).motion);
+    EXPECT_GE(n, 1) << f.relative;
+    EXPECT_LE(n, 5) << f.relative;
+  }
+  SourceListing b = list_source(bandai);
+  filter_source(&b, {}, {"normal"});
+  for (size_t i = 0; i < b.files.size(); i += 7)
+    EXPECT_EQ(count_leading_rest_frames(io::to_clip(io::read_bvh(b.files[i].path)).motion), 0) << b.files[i].relative;
+}
+
+TEST(RealDataAugment, BandaiDataset1RootFoldsIntoHips) {
+  const std::string path =
+      data_cache() + "/bandai-namco/Bandai-Namco-Research-Motiondataset-1/data/dataset-1_walk_normal_002.bvh";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared data not unpacked";
+  const Clip clip = io::to_clip(io::read_bvh(path));
+  ASSERT_TRUE(has_static_root(clip));
+  const Clip folded = collapse_static_root(clip);
+  EXPECT_EQ(folded.skeleton.joint_names[0], "Hips");
+  const WorldPoses a = forward_kinematics(clip.skeleton, clip.motion);
+  const WorldPoses b = forward_kinematics(folded.skeleton, folded.motion);
+  for (int t = 0; t < clip.motion.num_frames; ++t)
+    for (int j = 0; j < folded.skeleton.num_joints(); ++j)
+      ASSERT_LT((a.position(t, j + 1) - b.position(t, j)).norm(), 1e-6);
 }
 
 }  // namespace
