@@ -5,6 +5,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "core/kinematics.h"
@@ -22,15 +23,24 @@ fs::path temp_path(const std::string& tag) {
                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
 }
 
-// One synthetic source folder shared by the tests of this file (written once).
+// One synthetic source folder shared by the tests of this file (written once per process,
+// removed at exit; ctest may run the tests of this file in parallel processes).
+struct SyntheticSource {
+  SyntheticSource() {
+    path = (fs::temp_directory_path() / ("mosyn_prepare_synthetic_source_" + std::to_string(::getpid()))).string();
+    fs::remove_all(path);
+    write_synthetic_source(path, 2, 90, 1);
+  }
+  ~SyntheticSource() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string path;
+};
+
 const std::string& synthetic_source() {
-  static const std::string dir = [] {
-    const fs::path p = fs::temp_directory_path() / "mosyn_prepare_synthetic_source";
-    fs::remove_all(p);
-    write_synthetic_source(p.string(), 2, 90, 1);
-    return p.string();
-  }();
-  return dir;
+  static const SyntheticSource source;
+  return source.path;
 }
 
 PrepareOptions basic_options(const std::string& out) {
@@ -89,7 +99,9 @@ TEST(Prepare, EndToEndRotations) {
   for (const ClipRecord& c : d.clips("train")) {
     EXPECT_EQ(c.num_frames, 90);
     const bool left_file = c.source.find("walk-turn-left") != std::string::npos;
-    if (left_file) EXPECT_EQ(c.content, c.mirrored ? right : left);
+    if (left_file) {
+      EXPECT_EQ(c.content, c.mirrored ? right : left);
+    }
   }
   // Stats: finite, floored std.
   for (float s : d.stats().pose_std) EXPECT_GE(s, kStdFloor);
