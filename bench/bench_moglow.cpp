@@ -1,0 +1,84 @@
+// MoGlow speed: one training step (batch 100 x 60 frames) and per-frame sampling latency at
+// batch 1 and 64, for the shipped config, a K=8/hidden-128 config (the public reference's) and
+// the paper config (K=16, two 512-unit LSTM layers, tau=10). D=63 (21 joint positions), C=3.
+// LibTorch runs with 2 threads. Also a 1024^2 float matmul to confirm the BLAS backend.
+#include <benchmark/benchmark.h>
+#include <cstdlib>
+#include <torch/optim/adam.h>
+#include <torch/utils.h>
+
+#include "nn/model.h"
+
+using namespace mosyn::nn;
+
+namespace {
+
+constexpr int kPoseDim = 63;
+// MOSYN_BENCH_THREADS overrides the thread count.
+const int kThreads = std::getenv("MOSYN_BENCH_THREADS") ? std::atoi(std::getenv("MOSYN_BENCH_THREADS")) : 2;
+
+nlohmann::json config_of(int which) {
+  switch (which) {
+    case 0: return nlohmann::json::object();  // shipped default
+    case 1: return {{"num_steps", 8}, {"hidden", 128}, {"lstm_layers", 1}};
+    default: return {{"preset", "paper"}};
+  }
+}
+const char* name_of(int which) { return which == 0 ? "default" : which == 1 ? "k8_h128" : "paper"; }
+
+std::shared_ptr<MotionModel> make(int which) {
+  set_num_threads(kThreads);
+  torch::manual_seed(0);
+  ModelContext ctx;
+  ctx.pose_dim = kPoseDim;
+  ctx.control_dim = 3;
+  ctx.pose_form = "positions";
+  return create_model("moglow", config_of(which), ctx);
+}
+
+void BM_Matmul1024(benchmark::State& state) {
+  torch::set_num_threads(kThreads);
+  auto a = torch::randn({1024, 1024}), b = torch::randn({1024, 1024});
+  for (auto _ : state) benchmark::DoNotOptimize(a.matmul(b));
+  state.counters["GFLOP/s"] = benchmark::Counter(2.0 * 1024 * 1024 * 1024, benchmark::Counter::kIsIterationInvariantRate);
+  state.SetLabel(torch::get_parallel_info().find("OpenMP") != std::string::npos ? "openmp" : "");
+}
+
+void BM_TrainStep(benchmark::State& state) {
+  const int which = static_cast<int>(state.range(0));
+  auto model = make(which);
+  model->train();
+  torch::optim::Adam opt(model->parameters(), torch::optim::AdamOptions(1e-4));
+  Batch b{torch::randn({100, 60, kPoseDim}), torch::randn({100, 60, 3}), {}, {}};
+  for (auto _ : state) {
+    auto terms = model->loss(b);
+    opt.zero_grad();
+    terms.loss().backward();
+    opt.step();
+  }
+  state.SetLabel(name_of(which));
+}
+
+void BM_SampleFrame(benchmark::State& state) {
+  const int which = static_cast<int>(state.range(0));
+  const int batch = static_cast<int>(state.range(1));
+  auto model = make(which);
+  model->eval();
+  SampleRequest req;
+  req.batch = batch;
+  req.seed = 1;
+  auto stream = model->begin_stream(req);
+  auto control = torch::randn({batch, 3});
+  for (auto _ : state) benchmark::DoNotOptimize(model->step_stream(*stream, control));
+  state.SetLabel(std::string(name_of(which)) + " batch " + std::to_string(batch));
+}
+
+}  // namespace
+
+BENCHMARK(BM_Matmul1024)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrainStep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(5.0);
+BENCHMARK(BM_TrainStep)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_SampleFrame)->Args({0, 1})->Args({0, 64})->Args({1, 1})->Args({1, 64})->Args({2, 1})->Args({2, 64})
+    ->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+BENCHMARK_MAIN();
