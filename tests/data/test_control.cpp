@@ -1,0 +1,102 @@
+// Control signals: paths walked at the requested speed, clip root motion re-integrated exactly.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/synthetic.h"
+#include "core/trajectory.h"
+#include "data/control.h"
+
+namespace mosyn::data {
+namespace {
+
+TEST(ControlTest, ParsePathAcceptsPointsAndPauses) {
+  const auto path = parse_path(" 0,0,2 3,0;3,4 ");
+  ASSERT_EQ(path.size(), 3u);
+  EXPECT_DOUBLE_EQ(path[0].pause_s, 2.0);
+  EXPECT_DOUBLE_EQ(path[2].x_m, 3.0);
+  EXPECT_DOUBLE_EQ(path[2].z_m, 4.0);
+}
+
+TEST(ControlTest, ParsePathRejectsGarbage) {
+  EXPECT_THROW(parse_path(""), Error);
+  EXPECT_THROW(parse_path("1"), Error);
+  EXPECT_THROW(parse_path("1,2,3,4"), Error);
+  EXPECT_THROW(parse_path("1,x"), Error);
+  EXPECT_THROW(parse_path("1,nan"), Error);
+  EXPECT_THROW(parse_path("0,0,-1"), Error);
+}
+
+TEST(ControlTest, StraightPathEndsAtTheLastWaypoint) {
+  PathOptions options;
+  options.speed_mps = 1.5;
+  double heading = 0;
+  const auto control = control_from_path(parse_path("0,0 0,6"), options, &heading);
+  EXPECT_NEAR(heading, 0.0, 1e-9);  // facing +Z
+  const auto ground = integrate_control(control, heading);
+  EXPECT_NEAR(ground.back().x(), 0.0, 1e-3);
+  EXPECT_NEAR(ground.back().z(), 6.0, 1e-3);
+  // Cruising speed reaches the requested speed; no sideways motion on a straight line.
+  double max_speed = 0;
+  for (size_t t = 1; t < control.size() / 3; ++t) {
+    max_speed = std::max(max_speed, std::hypot(control[3 * t], control[3 * t + 1]) * options.fps);
+    EXPECT_NEAR(control[3 * t], 0.0, 1e-6);
+  }
+  EXPECT_NEAR(max_speed, 1.5, 1e-3);
+  // Duration: length / speed + ramp time + one second standing.
+  EXPECT_NEAR((control.size() / 3 - 1) / options.fps, 6.0 / 1.5 + options.accel_s + 1.0, 2.0 / options.fps);
+}
+
+TEST(ControlTest, CornersTurnByTheCornerAngle) {
+  PathOptions options;
+  double heading = 0;
+  const auto control = control_from_path(parse_path("0,0 0,4 4,4"), options, &heading);
+  double total_turn = 0;
+  for (size_t t = 1; t < control.size() / 3; ++t) total_turn += control[3 * t + 2];
+  // From facing +Z to facing +X is +90 degrees about +Y: a left turn (the character's left is +X).
+  EXPECT_NEAR(total_turn, M_PI / 2, 1e-3);
+  const auto ground = integrate_control(control, heading);
+  EXPECT_NEAR(ground.back().x(), 4.0, 1e-3);
+  EXPECT_NEAR(ground.back().z(), 4.0, 1e-3);
+}
+
+TEST(ControlTest, SingleWaypointStandsStill) {
+  PathOptions options;
+  options.seconds = 3;
+  const auto control = control_from_path(parse_path("1,1"), options);
+  EXPECT_EQ(control.size() / 3, 91u);
+  for (float v : control) EXPECT_EQ(v, 0.0f);
+}
+
+TEST(ControlTest, PauseAtStartStandsThenWalks) {
+  PathOptions options;
+  const auto control = control_from_path(parse_path("0,0,2 0,3"), options);
+  for (int t = 0; t <= 59; ++t) EXPECT_EQ(control[3 * t + 1], 0.0f) << t;  // 2 s standing
+  double moved = 0;
+  for (size_t t = 61; t < control.size() / 3; ++t) moved += control[3 * t + 1];
+  EXPECT_NEAR(moved, 3.0, 1e-3);
+}
+
+TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
+  Clip clip;
+  clip.skeleton = make_synthetic_biped();
+  SyntheticWalkOptions walk;
+  walk.turn_rate_rad_s = 0.4;
+  clip.motion = make_synthetic_walk(clip.skeleton, 120, 30.0, walk);
+  double heading = 0;
+  const auto control = control_from_clip(clip, 30.0, &heading);
+  ASSERT_EQ(control.size(), 3u * 120);
+  const auto ground =
+      ground_trajectory(clip.skeleton, clip.motion, 0, estimate_forward_in_root(clip.skeleton));
+  const auto path = integrate_control(control, heading);
+  const double mpu = clip.skeleton.meters_per_unit;
+  for (int t = 0; t < 120; ++t) {
+    const Eigen::Vector3d expected = (ground.positions[t] - ground.positions[0]) * mpu;
+    EXPECT_NEAR(path[t].x(), expected.x(), 1e-5) << t;
+    EXPECT_NEAR(path[t].z(), expected.z(), 1e-5) << t;
+  }
+}
+
+}  // namespace
+}  // namespace mosyn::data
