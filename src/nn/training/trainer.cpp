@@ -99,8 +99,7 @@ struct Window {
 };
 
 const std::vector<data::ClipRecord>& split_clips(const data::Dataset& ds, bool train) {
-  // The public members rather than clips(): identical, and usable with in-memory datasets.
-  return train ? ds.train_ : ds.val_;
+  return ds.clips(train ? "train" : "val");
 }
 
 std::vector<Window> enumerate_windows(const std::vector<data::ClipRecord>& clips, int window, int hop) {
