@@ -1,0 +1,200 @@
+// Objective metrics of motion quality, diversity and accuracy, computed the same way for generated
+// motions and for real held-out clips. Plain Eigen/C++ (no torch). Definitions and the choices made
+// where the papers leave things open are in src/eval/README.md.
+//
+// Conventions:
+// - Positions are world joint positions in METRES, row-major [T, J] (index t * J + j).
+// - The floor is the plane orthogonal to the up axis (0 = X, 1 = Y, 2 = Z); "horizontal" means the
+//   two other coordinates.
+// - A pose vector is the J * 3 joint coordinates of one frame flattened (x0 y0 z0 x1 ...); a
+//   sequence matrix is [T, J * 3], one pose per row. Distances between poses are the Euclidean
+//   (L2) norm of the whole pose vector, in metres.
+// - Functions throw mosyn::Error for inconsistent sizes or invalid options; never print.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/skeleton.h"
+
+namespace mosyn::eval {
+
+// World joint positions of one motion, in metres.
+struct MotionPositions {
+  std::string name;                     // e.g. the file it came from (for messages)
+  double fps = 30.0;
+  int num_frames = 0;
+  int num_joints = 0;
+  int up_axis = 1;
+  std::vector<std::string> joint_names;  // [J]
+  std::vector<int> parents;              // [J], -1 for the root
+  std::vector<double> bone_lengths_m;    // [J] rest length of the bone to the parent (0 for the root)
+  std::vector<Eigen::Vector3d> positions_m;  // [T, J]
+
+  const Eigen::Vector3d& position(int t, int j) const {
+    return positions_m[static_cast<size_t>(t) * num_joints + j];
+  }
+  // The motion as a sequence matrix [T, J * 3].
+  Eigen::MatrixXd sequence() const;
+};
+
+// Forward kinematics of a clip scaled to metres: meters_per_unit > 0 is used as given, otherwise
+// the skeleton's own when it is not 1, else guess_units(skeleton). Up axis from the skeleton.
+MotionPositions motion_positions(const Clip& clip, double meters_per_unit = 0.0, const std::string& name = "");
+
+// Joint index of the first joint whose name contains one of the patterns (case-insensitive), tried
+// pattern by pattern, restricted to joints with side (joint_sides: +1 left, -1 right, 0 unpaired)
+// equal to `side`; -1 when none.
+int find_joint_by_patterns(const std::vector<std::string>& joint_names, const std::vector<int>& sides,
+                           const std::vector<std::string>& patterns, int side);
+
+// The joints whose horizontal speed marks ground contact.
+struct FootJoints {
+  int left_heel = -1, right_heel = -1;  // ankle / heel joints (Foot_L, LeftFoot, LHEE)
+  int left_toe = -1, right_toe = -1;    // toe joints (Toes_L, LeftToeBase), -1 when absent
+};
+
+// Foot joints found by name: heel = first of "heel", "foot", "ankle" on each side; toe = first
+// of "toe" on each side (sides from mirror_map). Names in `overrides` (exact joint names, may be
+// empty) replace the search: {left_heel, right_heel, left_toe, right_toe}. Throws mosyn::Error when
+// an override names no joint or no heel is found on either side.
+FootJoints find_foot_joints(const MotionPositions& motion, const std::vector<std::string>& overrides = {});
+
+// Side of every joint (+1 left, -1 right, 0 unpaired) from its name, as joint_sides (core/mirror.h).
+std::vector<int> joint_sides_of(const MotionPositions& motion);
+
+// ---------------------------------------------------------------------------------------------
+// Locomotion quality: footstep analysis (MoGlow, Henter et al. 2020, section 5.3).
+
+// Horizontal speed [T - 1] of joint j in m/s: speed[t] = |h(p[t+1] - p[t])| * fps (h drops the up
+// coordinate). Empty for fewer than 2 frames.
+std::vector<double> horizontal_speed_mps(const MotionPositions& motion, int joint);
+
+// Footsteps of one speed track: maximal runs of consecutive samples with speed < v_tol_mps. A run
+// of n samples spans n + 1 frames and lasts n / fps seconds. Runs touching the ends count.
+// Returns the durations in seconds, in time order.
+std::vector<double> footstep_durations_s(const std::vector<double>& speed_mps, double fps, double v_tol_mps);
+
+struct FootstepOptions {
+  double v_tol_step_mps = 0.01;  // tolerance increment (the paper: 1 cm/s for humans)
+  double v_tol_max_mps = 1.0;    // last tolerance tried
+  bool use_toes = false;         // toe joints instead of heels (quadrupeds), when found
+};
+
+struct FootstepAnalysis {
+  std::vector<double> v_tol_mps;   // [K] tolerances: (k + 1) * v_tol_step_mps
+  std::vector<int> f_est;          // [K] footsteps over all feet and motions at each tolerance
+  int max_steps = 0;               // max of f_est (the plateau: the paper's f_est)
+  double v_tol95_mps = 0;          // first tolerance with f_est >= 0.95 * max_steps (0 if none)
+  int steps_at_v_tol95 = 0;        // f_est at v_tol95
+  double step_duration_mean_s = 0;  // over the footsteps at v_tol95 (NaN when none)
+  double step_duration_std_s = 0;   // population std of the same (NaN when none)
+};
+
+// Footstep analysis over a set of motions (their footsteps pooled, all tolerances), on the heels (or
+// toes with use_toes) of feet[i] for motions[i]. Throws when the sizes differ or options are not
+// positive.
+FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, const std::vector<FootJoints>& feet,
+                                   const FootstepOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Foot skating (MOJO, Zhang et al. 2021, section 4.4).
+
+struct FootSkatingOptions {
+  double height_threshold_m = 0.05;   // "near the ground": within this of the marker's lowest point
+  double speed_threshold_mps = 0.075;  // 5 mm per frame at 15 fps (the paper's setting)
+  bool both_feet = false;             // require both feet to skate at once (MOJO's literal reading)
+};
+
+// Fraction (0..1) of frame transitions t-1 -> t (t = 1..T-1) in which a foot marker (the heels of
+// `feet`) lies within height_threshold_m of its own lowest height over the motion at both frames
+// and moves horizontally faster than speed_threshold_mps. With both_feet, both markers must. The
+// lowest point stands for the ground, because joints sit above the sole by an unknown amount. 0 for
+// fewer than 2 frames.
+double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet, const FootSkatingOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Body validity.
+
+// Root mean square over frames and non-root joints of (|p_j - p_parent(j)| - bone_lengths_m[j]),
+// metres. 0 for a motion without bones or frames.
+double bone_length_rmse_m(const MotionPositions& motion);
+
+// A set of joints that a real body keeps at fixed mutual distances.
+struct RigidPart {
+  std::string name;          // "head", "upper torso", "lower torso"
+  std::vector<int> joints;   // at least 2
+};
+
+// The head (neck and head joints), upper torso (the neck's parent, the neck, and the first joint of
+// each shoulder chain) and lower torso (the pelvis, its first unpaired child, and the first joint of
+// each leg) found by name; parts with fewer than 2 joints found are left out.
+std::vector<RigidPart> default_rigid_parts(const MotionPositions& motion);
+
+// MOJO's deformation score of one part (Eq. 3): the standard deviation over time (population) of
+// each pairwise distance between the part's joints, averaged over pairs; metres.
+double rigid_part_deformation_m(const MotionPositions& motion, const RigidPart& part);
+
+// ---------------------------------------------------------------------------------------------
+// Stochastic prediction (DLow, Yuan and Kitani 2020; MOJO section 4.3). Samples and ground truths
+// are sequence matrices [T, D] of equal shape.
+
+// Average pairwise distance: mean over ordered pairs i != j of ||X_i - X_j|| (Frobenius norm of the
+// whole flattened sequence). 0 for fewer than 2 samples.
+double average_pairwise_distance(const std::vector<Eigen::MatrixXd>& samples);
+
+// min over samples k of mean over frames t of ||X_k[t] - Y[t]||.
+double average_displacement_error(const std::vector<Eigen::MatrixXd>& samples, const Eigen::MatrixXd& ground_truth);
+
+// min over samples k of ||X_k[T-1] - Y[T-1]||.
+double final_displacement_error(const std::vector<Eigen::MatrixXd>& samples, const Eigen::MatrixXd& ground_truth);
+
+// Multi-modal ground truth: for each window i, the indices j (i included, ascending) of windows
+// whose last context pose lies within threshold_m of window i's: ||c_j - c_i|| <= threshold_m.
+// last_context_poses is [N, D], one row per window.
+std::vector<std::vector<int>> multimodal_ground_truth(const Eigen::MatrixXd& last_context_poses, double threshold_m);
+
+// Mean over the ground truths g of ADE(samples, g) (MMADE), and of FDE (MMFDE).
+double multimodal_ade(const std::vector<Eigen::MatrixXd>& samples, const std::vector<Eigen::MatrixXd>& ground_truths);
+double multimodal_fde(const std::vector<Eigen::MatrixXd>& samples, const std::vector<Eigen::MatrixXd>& ground_truths);
+
+// Power-spectrum entropy of a sequence [T, D] (nats): for each column, the mean is removed, the
+// one-sided power spectrum P_k = |DFT_k|^2 for k = 1..floor(T/2) is normalised to sum 1 and its
+// entropy -sum P_k log P_k taken; the result is the mean over columns with non-zero power (0 when
+// none).
+double spectral_entropy(const Eigen::MatrixXd& sequence);
+
+// FSE: mean spectral_entropy of the samples minus mean spectral_entropy of the ground truths.
+double spectral_entropy_difference(const std::vector<Eigen::MatrixXd>& samples,
+                                   const std::vector<Eigen::MatrixXd>& ground_truths);
+
+// ---------------------------------------------------------------------------------------------
+// Distribution over time (DFN, Chen et al. 2020, section 6.3).
+
+struct MeanPoseDistance {
+  Eigen::VectorXd mean_m;  // [T] mean over samples of ||X_k[t] - mean_k X_k[t]||
+  Eigen::VectorXd std_m;   // [T] population std of the same distances
+};
+
+// For each frame, the distance of every sample's pose to the mean pose of all samples at that
+// frame. Samples must share their shape; at least one.
+MeanPoseDistance mean_pose_distance(const std::vector<Eigen::MatrixXd>& samples);
+
+// ---------------------------------------------------------------------------------------------
+// Recognisability (Ghorbani et al. 2020, section 5.2), on a classifier's outputs.
+
+// Inception score from class probabilities [N, C] (rows sum to 1): exp(mean_i KL(p_i || p_hat))
+// with p_hat the mean row. Terms with p_i(c) = 0 contribute 0.
+double inception_score(const Eigen::MatrixXd& probabilities);
+
+// Frechet distance between Gaussians: ||mu1 - mu2||^2 + Tr(S1 + S2 - 2 (S1 S2)^(1/2)), with the
+// trace of the square root computed as sum sqrt(eig(S1^(1/2) S2 S1^(1/2))) (symmetric, stable).
+double frechet_distance(const Eigen::VectorXd& mean1, const Eigen::MatrixXd& cov1, const Eigen::VectorXd& mean2,
+                        const Eigen::MatrixXd& cov2);
+
+// FID between two feature sets [N, F] and [M, F] (rows are samples): Frechet distance of their
+// means and unbiased (N - 1) covariances. Each set needs at least 2 rows.
+double frechet_inception_distance(const Eigen::MatrixXd& features1, const Eigen::MatrixXd& features2);
+
+}  // namespace mosyn::eval
