@@ -45,7 +45,8 @@ struct LossTerms {
 
 // A request for random motion. All tensors standardised; poses and controls batch-first.
 struct SampleRequest {
-  torch::Tensor control;         // [B, T, C]: control of the T frames to generate
+  torch::Tensor control;         // [B, T, C]: control of the T frames to generate (families
+                                 // without control use only its shape: B and T)
   torch::Tensor prefix_pose;     // optional [B, P, D]: motion preceding the generated frames
   torch::Tensor prefix_control;  // optional [B, P, C]: its control (zeros = mean when undefined)
   torch::Tensor content;         // optional [B] int64 labels, -1 = none
@@ -74,6 +75,10 @@ class MotionModel : public torch::nn::Module {
   // The fully resolved model config (defaults filled in); create_model(family(), config(), ctx)
   // rebuilds the same architecture.
   virtual nlohmann::json config() const = 0;
+
+  // Called by the trainer before every training step (1-based step of total_steps), so a family
+  // can schedule loss weights (e.g. KL annealing) without trainer special cases. Default: no-op.
+  virtual void set_progress(int step, int total_steps) {}
 
   // Training objective on a batch. Uses training-only regularisers (e.g. data dropout) only when
   // is_training(). Random choices draw from the default CPU generator (torch::manual_seed).

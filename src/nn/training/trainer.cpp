@@ -321,6 +321,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
     for (auto& group : optimizer.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
     for (auto& w : chosen) w = train_windows[pick(rng)];
     auto batch = maker.make(train_clips, chosen, 0, chosen.size(), window);
+    model->set_progress(next, opts.steps);
     auto terms = model->loss(batch);
     const double loss = terms.loss().item<double>();
     auto fail = [&](const std::string& what) {
