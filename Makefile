@@ -11,7 +11,7 @@ CACHE   ?= $(BUILD)/cache
 
 DEB_PACKAGES := build-essential cmake pkg-config libtorch-dev libopenblas0-openmp libeigen3-dev \
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libzip-dev \
-  libpng-dev libgif-dev libstb-dev libtinygltf-dev
+  libpng-dev libgif-dev libstb-dev libtinygltf-dev npm chromium
 
 .PHONY: demo test deps configure build clean
 

@@ -1,0 +1,34 @@
+// `mosyn view`: one self-contained HTML page that plays motions in the browser with three.js.
+// The page inlines the viewer script (web/src/viewer.js with three.js, bundled by esbuild at build
+// time and embedded in the library) and the motions as JSON, so it works offline from disk
+// (file:// pages cannot import modules).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "render/scene.h"
+
+namespace mosyn::render {
+
+// The bundled viewer script; "" when mosyn was built without npm/node.
+const char* viewer_script();
+
+// True when viewer_script() is not empty.
+bool viewer_available();
+
+// The motions as the page's JSON: {"title", "motions": [{"name", "fps", "color" "#rrggbb", "names"
+// [J], "parents" [J], "frames" [T][J * 3]}]} with positions in metres (+Y up) rounded to 0.1 mm.
+std::string viewer_data_json(const std::vector<RenderMotion>& motions, const std::string& title);
+
+// The whole HTML page: canvas, controls (play/pause, time scrubber, speed, overlay toggle, orbit
+// camera by mouse), legend with one colour per motion. "</" inside the inlined script and data is
+// escaped so neither can end its <script> element. Throws mosyn::Error when the viewer script is
+// unavailable (mosyn built without npm) or there is no motion.
+std::string viewer_page(const std::vector<RenderMotion>& motions, const std::string& title = "mosyn");
+
+// viewer_page written atomically.
+void write_viewer_page(const std::string& path, const std::vector<RenderMotion>& motions,
+                       const std::string& title = "mosyn");
+
+}  // namespace mosyn::render
