@@ -43,6 +43,7 @@ void add_info_command(CLI::App& app, Action* action);
 void add_convert_command(CLI::App& app, Action* action);
 void add_data_commands(CLI::App& app, Action* action);
 void add_model_commands(CLI::App& app, Action* action);  // train, sample
+void add_eval_commands(CLI::App& app, Action* action);   // metrics, render, view
 
 // Number of hardware threads, at least 1.
 int default_threads();

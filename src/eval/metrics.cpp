@@ -11,6 +11,7 @@
 #include "core/kinematics.h"
 #include "core/mirror.h"
 #include "core/units.h"
+#include "data/augment.h"
 
 namespace mosyn::eval {
 namespace {
@@ -59,7 +60,9 @@ Eigen::MatrixXd MotionPositions::sequence() const {
   return out;
 }
 
-MotionPositions motion_positions(const Clip& clip, double meters_per_unit, const std::string& name) {
+MotionPositions motion_positions(const Clip& input, double meters_per_unit, const std::string& name) {
+  // A placeholder root (Bandai-Namco's joint_Root) is no body part: its "bone" to Hips would vary.
+  const Clip clip = data::collapse_static_root(input);
   const Skeleton& s = clip.skeleton;
   double mpu = meters_per_unit;
   if (!(mpu > 0)) mpu = s.meters_per_unit != 1.0 ? s.meters_per_unit : guess_meters_per_unit(s);
@@ -174,7 +177,8 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
   for (int k = 1; k <= k_count; ++k) {
     const double v = k * options.v_tol_step_mps;
     int count = 0;
-    for (const auto& [speed, fps] : tracks) count += static_cast<int>(footstep_durations_s(speed, fps, v).size());
+    for (const auto& [speed, fps] : tracks)
+      for (double d : footstep_durations_s(speed, fps, v)) count += d >= options.min_step_duration_s - 1e-9;
     a.v_tol_mps.push_back(v);
     a.f_est.push_back(count);
     a.max_steps = std::max(a.max_steps, count);
@@ -190,7 +194,8 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
   }
   std::vector<double> durations;
   for (const auto& [speed, fps] : tracks)
-    for (double d : footstep_durations_s(speed, fps, a.v_tol95_mps)) durations.push_back(d);
+    for (double d : footstep_durations_s(speed, fps, a.v_tol95_mps))
+      if (d >= options.min_step_duration_s - 1e-9) durations.push_back(d);
   a.step_duration_mean_s = mean_of(durations);
   a.step_duration_std_s = population_std(durations);
   return a;

@@ -40,7 +40,9 @@ struct MotionPositions {
 };
 
 // Forward kinematics of a clip scaled to metres: meters_per_unit > 0 is used as given, otherwise
-// the skeleton's own when it is not 1, else guess_units(skeleton). Up axis from the skeleton.
+// the skeleton's own when it is not 1, else guess_units(skeleton). Up axis from the skeleton. A
+// placeholder root (data::has_static_root, e.g. Bandai-Namco's joint_Root) is collapsed first, so
+// joint 0 is the pelvis and every bone is a body part.
 MotionPositions motion_positions(const Clip& clip, double meters_per_unit = 0.0, const std::string& name = "");
 
 // Joint index of the first joint whose name contains one of the patterns (case-insensitive), tried
@@ -72,7 +74,8 @@ std::vector<int> joint_sides_of(const MotionPositions& motion);
 std::vector<double> horizontal_speed_mps(const MotionPositions& motion, int joint);
 
 // Footsteps of one speed track: maximal runs of consecutive samples with speed < v_tol_mps. A run
-// of n samples spans n + 1 frames and lasts n / fps seconds. Runs touching the ends count.
+// of n samples spans n + 1 frames and lasts n / fps seconds. Runs touching the ends count. (No
+// minimum duration here; analyse_footsteps applies FootstepOptions::min_step_duration_s.)
 // Returns the durations in seconds, in time order.
 std::vector<double> footstep_durations_s(const std::vector<double>& speed_mps, double fps, double v_tol_mps);
 
@@ -80,6 +83,9 @@ struct FootstepOptions {
   double v_tol_step_mps = 0.01;  // tolerance increment (the paper: 1 cm/s for humans)
   double v_tol_max_mps = 1.0;    // last tolerance tried
   bool use_toes = false;         // toe joints instead of heels (quadrupeds), when found
+  // Shortest run counted as a footstep. Mocap jitter splits a contact into brief still runs at low
+  // tolerances; without a minimum those fragments inflate f_est beyond the true plateau.
+  double min_step_duration_s = 0.1;
 };
 
 struct FootstepAnalysis {
@@ -92,7 +98,8 @@ struct FootstepAnalysis {
   double step_duration_std_s = 0;   // population std of the same (NaN when none)
 };
 
-// Footstep analysis over a set of motions (their footsteps pooled, all tolerances), on the heels (or
+// Footstep analysis over a set of motions (their footsteps pooled, all tolerances; runs shorter than
+// min_step_duration_s not counted), on the heels (or
 // toes with use_toes) of feet[i] for motions[i]. Throws when the sizes differ or options are not
 // positive.
 FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, const std::vector<FootJoints>& feet,
@@ -104,7 +111,10 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
 struct FootSkatingOptions {
   double height_threshold_m = 0.05;   // "near the ground": within this of the marker's lowest point
   double speed_threshold_mps = 0.075;  // 5 mm per frame at 15 fps (the paper's setting)
-  bool both_feet = false;             // require both feet to skate at once (MOJO's literal reading)
+  // MOJO: skating "when both foot markers are close enough to the ground and simultaneously exceed
+  // a speed limit". With false, one foot suffices (much higher on natural walking: a foot rolling
+  // off the ground near toe-off already counts).
+  bool both_feet = true;
 };
 
 // Fraction (0..1) of frame transitions t-1 -> t (t = 1..T-1) in which a foot marker (the heels of

@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/kinematics.h"
 #include "core/units.h"
+#include "data/augment.h"
 
 namespace mosyn::render {
 namespace {
@@ -143,7 +144,8 @@ Eigen::Vector3d to_y_up(const Eigen::Vector3d& p, int up_axis) {
   }
 }
 
-RenderMotion render_motion_from_clip(const Clip& clip, Rgb color, double meters_per_unit, const std::string& name) {
+RenderMotion render_motion_from_clip(const Clip& input, Rgb color, double meters_per_unit, const std::string& name) {
+  const Clip clip = data::collapse_static_root(input);  // the path then follows the pelvis
   const Skeleton& s = clip.skeleton;
   double mpu = meters_per_unit;
   if (!(mpu > 0)) mpu = s.meters_per_unit != 1.0 ? s.meters_per_unit : guess_meters_per_unit(s);
