@@ -179,7 +179,7 @@ struct PictureArgs {
   double time_s = -1;
   int filmstrip = 0;
   double units_m = 0;
-  bool overlay = false, perspective = false, no_grid = false, no_paths = false;
+  bool overlay = false, perspective = false, no_grid = false, no_paths = false, follow = false;
 };
 
 std::vector<render::RenderMotion> render_motions(const PictureArgs& a) {
@@ -223,6 +223,7 @@ void run_render(const PictureArgs& a) {
   o.width = a.width;
   o.height = a.height;
   o.overlay = a.overlay;
+  o.follow = a.follow;
   o.perspective = a.perspective;
   o.grid = !a.no_grid;
   o.paths = !a.no_paths;
@@ -330,6 +331,7 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--time", a->time_s, "PNG: time in seconds");
     cmd->add_option("--filmstrip", a->filmstrip, "PNG: N frames evenly spaced over the motion, side by side");
     cmd->add_flag("--overlay", a->overlay, "draw all motions in one panel");
+    cmd->add_flag("--follow", a->follow, "camera follows the figures (body-sized view) instead of fitting whole paths");
     cmd->add_flag("--perspective", a->perspective, "perspective camera (default orthographic)");
     cmd->add_flag("--no-grid", a->no_grid, "no ground grid");
     cmd->add_flag("--no-paths", a->no_paths, "no ground paths");

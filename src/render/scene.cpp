@@ -72,8 +72,17 @@ Rgb lighter(Rgb c, double amount) {
 
 void draw_panel(Image* image, int x0, int width, int height, const std::vector<const RenderMotion*>& motions,
                 const Box& box, double radius_m, double time_s, const RenderOptions& o) {
-  const Eigen::Vector3d center = 0.5 * (box.lo + box.hi);
+  Eigen::Vector3d center = 0.5 * (box.lo + box.hi);
   const double floor_y = std::min(0.0, box.lo.y());
+  if (o.follow) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const RenderMotion* m : motions) {
+      const int t = std::clamp(static_cast<int>(std::lround(time_s * m->fps)), 0, m->num_frames - 1);
+      sum += m->position(t, path_joint(*m));
+    }
+    center = sum / static_cast<double>(motions.size());
+    center.y() = floor_y + 0.5 * radius_m / 0.8;  // radius_m is 0.8 x the tallest body here
+  }
   auto proj = [&](const Eigen::Vector3d& p) {
     Eigen::Vector3d s = project(p, o.camera, o.perspective, center, radius_m, width, height);
     s.x() += x0;
@@ -201,6 +210,12 @@ Image render_frame(const std::vector<RenderMotion>& motions, double time_s, cons
       throw Error("motion '" + m.name + "' is inconsistent");
   }
   Image image(o.width, o.height, o.background);
+  double body_radius = 0;  // 0.8 x the tallest body, the view radius when following
+  for (const auto& m : motions) {
+    const Box b = bounds(m);
+    body_radius = std::max(body_radius, 0.8 * (b.hi.y() - b.lo.y()));
+  }
+  body_radius = std::max(body_radius, 0.1);
   if (o.overlay) {
     Box box;
     std::vector<const RenderMotion*> all;
@@ -208,7 +223,8 @@ Image render_frame(const std::vector<RenderMotion>& motions, double time_s, cons
       box.add(bounds(m));
       all.push_back(&m);
     }
-    draw_panel(&image, 0, o.width, o.height, all, box, 0.5 * (box.hi - box.lo).norm(), time_s, o);
+    draw_panel(&image, 0, o.width, o.height, all, box, o.follow ? body_radius : 0.5 * (box.hi - box.lo).norm(), time_s,
+               o);
     return image;
   }
   const int n = static_cast<int>(motions.size());
@@ -220,7 +236,10 @@ Image render_frame(const std::vector<RenderMotion>& motions, double time_s, cons
   }
   for (int i = 0; i < n; ++i) {
     const int x0 = o.width * i / n, x1 = o.width * (i + 1) / n;
-    draw_panel(&image, x0, x1 - x0, o.height, {&motions[i]}, boxes[i], radius, time_s, o);
+    // Each panel on its own canvas, so nothing spills into a neighbour.
+    Image panel(x1 - x0, o.height, o.background);
+    draw_panel(&panel, 0, x1 - x0, o.height, {&motions[i]}, boxes[i], o.follow ? body_radius : radius, time_s, o);
+    image.paste(panel, x0, 0);
   }
   return image;
 }

@@ -49,6 +49,8 @@ struct RenderOptions {
   CameraPreset camera = CameraPreset::kIso;
   bool perspective = false;      // orthographic when false
   bool overlay = false;          // all motions in one panel instead of side by side
+  bool follow = false;           // camera follows the figures (body-sized view) instead of fitting
+                                 // the whole motion
   bool grid = true;              // ground grid (grid_spacing_m squares) under each panel
   double grid_spacing_m = 0.5;
   bool paths = true;             // the root's ground path over the whole motion
@@ -59,7 +61,9 @@ struct RenderOptions {
 // Renders every motion at time time_s (frame round(time_s * fps), held at the last frame once a
 // motion has ended). Side by side: the width is split into equal panels, one per motion, each
 // centred on its own motion with one common scale; overlay: one panel centred on all. The view
-// fits every frame of the motions, so the scale does not change during an animation. Throws
+// fits every frame of the motions, so the scale does not change during an animation; with follow
+// it is centred on the figures' current root (mean over the panel's motions) and shows 1.6 times the
+// tallest body height, which is also constant. Throws
 // mosyn::Error for an empty list or a motion without frames.
 Image render_frame(const std::vector<RenderMotion>& motions, double time_s, const RenderOptions& options);
 
