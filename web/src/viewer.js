@@ -43,6 +43,9 @@ function pathJoint(m) {
   return 1;
 }
 
+// One bone thickness for all figures, from the tallest, so that figures compare.
+const boneRadius = 0.01 * Math.max(0.5, ...boxes.map((b) => b.max.y - b.min.y));
+
 const figures = motions.map((m, i) => {
   const group = new THREE.Group();
   scene.add(group);
@@ -50,8 +53,7 @@ const figures = motions.map((m, i) => {
   const material = new THREE.MeshBasicMaterial({ color });
   const bones = [];
   const joints = [];
-  const height = Math.max(0.5, boxes[i].max.y - boxes[i].min.y);
-  const radius = 0.012 * height;
+  const radius = boneRadius;
   for (let j = 0; j < m.parents.length; ++j) {
     const sphere = new THREE.Mesh(jointGeometry, material);
     sphere.scale.setScalar(radius * 1.6);
