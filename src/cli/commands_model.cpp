@@ -1,8 +1,287 @@
-// `mosyn train` and `mosyn sample` (wired once the nn layer lands).
+// `mosyn train FAMILY` and `mosyn sample RUN_DIR`.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
 #include "cli/cli.h"
+#include "core/error.h"
+#include "core/kinematics.h"
+#include "data/control.h"
+#include "data/dataset.h"
+#include "io/bvh.h"
+#include "io/json_file.h"
+#include "io/npy.h"
+#include "nn/model.h"
+#include "nn/run.h"
+#include "nn/sampling.h"
+#include "nn/training/train.h"
 
 namespace mosyn::cli {
+namespace {
 
-void add_model_commands(CLI::App& app, Action* action) {}
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void on_interrupt(int) { g_interrupted = true; }
+
+struct TrainArgs {
+  std::string family;
+  std::string config_file;
+  std::string preset;
+  nn::TrainOptions options;
+  CLI::App* cmd = nullptr;
+};
+
+// Config file keys: {"model": {...}, "train": {...}}; flags given on the command line win.
+void run_train(TrainArgs& a) {
+  nn::TrainOptions o;
+  if (!a.config_file.empty()) {
+    const nlohmann::json file = io::read_json(a.config_file);
+    for (const auto& [key, value] : file.items())
+      if (key != "model" && key != "train")
+        throw Error(a.config_file + ": unknown key '" + key + "'; expected \"model\" and/or \"train\"");
+    if (file.contains("train")) {
+      nlohmann::json merged = o.to_json();
+      merged.update(file["train"]);
+      try {
+        o = nn::TrainOptions::from_json(merged);
+      } catch (const Error& e) {
+        throw Error(a.config_file + ": " + e.what());
+      }
+    }
+    if (file.contains("model")) o.model_config = file["model"];
+  }
+  const nn::TrainOptions& flags = a.options;
+  auto given = [&](const char* name) { return a.cmd->count(name) > 0; };
+  o.family = a.family;
+  o.data_dir = flags.data_dir;
+  o.out_dir = flags.out_dir;
+  if (given("--steps")) o.steps = flags.steps;
+  if (given("--batch")) o.batch = flags.batch;
+  if (given("--window")) o.window = flags.window;
+  if (given("--lr")) o.lr = flags.lr;
+  if (given("--warmup")) o.warmup = flags.warmup;
+  if (given("--seed")) o.seed = flags.seed;
+  if (given("--threads")) o.threads = flags.threads;
+  if (given("--device")) o.device = flags.device;
+  if (given("--checkpoint-every")) o.checkpoint_every = flags.checkpoint_every;
+  if (given("--validate-every")) o.validate_every = flags.validate_every;
+  o.resume = flags.resume;
+  o.overwrite = flags.overwrite;
+  if (!a.preset.empty()) o.model_config["preset"] = a.preset;
+  if (o.resume && o.overwrite) throw UsageError("--resume and --overwrite exclude each other");
+  if (o.steps < 1 || o.batch < 1) throw UsageError("--steps and --batch must be at least 1");
+  if (!(o.lr > 0)) throw UsageError("--lr must be positive");
+
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  ProgressLine progress;
+  nn::TrainCallbacks callbacks;
+  callbacks.on_message = [&](const std::string& m) {
+    progress.finish();
+    std::fprintf(stderr, "%s\n", m.c_str());
+  };
+  callbacks.on_progress = [&](const nn::TrainProgress& p) {
+    char line[320];
+    std::string extra;
+    for (const auto& [k, v] : p.metrics) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, " %s %.4g", k.c_str(), v);
+      extra += buf;
+    }
+    std::snprintf(line, sizeof line, "step %d/%d  loss %.4f%s%s  lr %.2e  %.2f step/s  ETA %s", p.step, p.total_steps,
+                  p.loss, extra.c_str(),
+                  p.has_val ? ("  val " + std::to_string(p.val_loss)).c_str() : "", p.lr, p.steps_per_s,
+                  format_duration(p.eta_s).c_str());
+    progress.update(line, p.has_val || p.step == p.total_steps);
+  };
+  callbacks.should_stop = [] { return g_interrupted.load(); };
+  const nn::TrainResult r = nn::train(o, callbacks);
+  progress.finish();
+  if (r.stopped_early)
+    std::fprintf(stderr, "interrupted: checkpoint at step %d saved in %s (continue with --resume)\n", r.step,
+                 r.run_dir.c_str());
+  else
+    std::fprintf(stderr, "trained %d steps: last loss %.4f, best validation loss %.4f; run in %s\n", r.step,
+                 r.last_loss, r.best_val_loss, r.run_dir.c_str());
+}
+
+struct SampleArgs {
+  std::string run_dir, out_dir;
+  int n = 4;
+  std::uint64_t seed = 0;
+  double seconds = 0;
+  double temperature = 1.0;
+  bool positions = false;
+  std::string path, control_file, data_dir, split = "val", checkpoint = "checkpoint.pt", prefix = "sample";
+  int clip = -1;
+  double speed_mps = 1.3;
+  int threads = 0;
+  std::string content, style;
+};
+
+int label_index(const std::vector<std::string>& vocabulary, const std::string& label, const char* what) {
+  if (label.empty()) return -1;
+  for (size_t i = 0; i < vocabulary.size(); ++i)
+    if (vocabulary[i] == label) return static_cast<int>(i);
+  std::string known;
+  for (const auto& v : vocabulary) known += (known.empty() ? "" : ", ") + v;
+  throw UsageError(std::string("unknown ") + what + " '" + label + "'; the run knows: " + known);
+}
+
+void run_sample(const SampleArgs& a) {
+  const int sources = !a.path.empty() + !a.control_file.empty() + !a.data_dir.empty();
+  if (sources > 1) throw UsageError("give at most one of --path, --control and --data");
+  if (a.n < 1 || a.n > 10000) throw UsageError("--n must be in [1, 10000]");
+  if (a.seconds < 0 || a.seconds > 3600) throw UsageError("--seconds must be in [0, 3600]");
+  if (!(a.temperature >= 0)) throw UsageError("--temperature must not be negative");
+  if (!(a.speed_mps > 0)) throw UsageError("--speed must be positive");
+
+  nn::LoadOptions load;
+  load.checkpoint = a.checkpoint;
+  load.threads = a.threads;
+  const nn::LoadedRun run = nn::load_run(a.run_dir, load);
+  const double fps = run.dataset.fps;
+
+  // The control signal, raw [T, 3].
+  std::vector<float> control;
+  double start_heading = 0;
+  nlohmann::json control_desc;
+  if (!a.control_file.empty()) {
+    const std::string ext = std::filesystem::path(a.control_file).extension().string();
+    if (ext == ".csv" || ext == ".CSV") {
+      control = data::control_from_csv(a.control_file);
+    } else {
+      control = data::control_from_clip(io::to_clip(io::read_bvh(a.control_file)), fps, &start_heading);
+    }
+    control_desc = {{"kind", "file"}, {"file", a.control_file}};
+  } else if (!a.data_dir.empty()) {
+    const data::Dataset dataset = data::Dataset::open(a.data_dir);
+    const auto& clips = dataset.clips(a.split);
+    if (a.clip < 0 || a.clip >= static_cast<int>(clips.size()))
+      throw UsageError("--clip must be in [0, " + std::to_string(clips.size()) + ") for split '" + a.split + "'");
+    control = clips[a.clip].control;
+    control_desc = {{"kind", "dataset"}, {"dataset", a.data_dir}, {"split", a.split}, {"clip", a.clip},
+                    {"source", clips[a.clip].source}};
+  } else {
+    data::PathOptions po;
+    po.speed_mps = a.speed_mps;
+    po.fps = fps;
+    po.seconds = a.seconds;
+    const std::string text = a.path.empty() ? "0,0 0,4 3,7" : a.path;
+    std::vector<data::Waypoint> path;
+    try {
+      path = data::parse_path(text);
+    } catch (const Error& e) {
+      throw UsageError(std::string("--path: ") + e.what());
+    }
+    control = data::control_from_path(path, po, &start_heading);
+    control_desc = {{"kind", "path"}, {"path", text}, {"speed_mps", a.speed_mps}};
+  }
+  // --seconds cuts or extends (standing still) controls from files and datasets too.
+  if (a.seconds > 0) control.resize(3 * (static_cast<size_t>(a.seconds * fps) + 1), 0.0f);
+  const int num_frames = static_cast<int>(control.size() / 3);
+  if (num_frames < 2) throw Error("the control has fewer than 2 frames");
+
+  nn::SampleExtras extras;
+  extras.content = label_index(run.dataset.content_labels, a.content, "content label");
+  extras.style = label_index(run.dataset.style_labels, a.style, "style label");
+  const auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
+
+  std::filesystem::create_directories(a.out_dir);
+  for (int i = 0; i < a.n; ++i) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
+    const std::string base = (std::filesystem::path(a.out_dir) / name).string();
+    Clip clip = data::decode_features(run.dataset, poses[i].data(), control.data(), num_frames, Eigen::Vector3d::Zero(),
+                                      start_heading);
+    io::write_bvh(base + ".bvh", io::from_clip(clip));
+    if (a.positions) {
+      const WorldPoses world = forward_kinematics(clip.skeleton, clip.motion);
+      std::vector<float> values;
+      values.reserve(world.positions.size() * 3);
+      for (const auto& p : world.positions)
+        for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k] * clip.skeleton.meters_per_unit));
+      io::write_npy(base + ".npy", {num_frames, clip.skeleton.num_joints(), 3}, values);
+    }
+    nlohmann::json sidecar = {{"model", {{"run_dir", a.run_dir}, {"family", run.family}, {"step", run.step},
+                                         {"checkpoint", a.checkpoint}}},
+                              {"seed", a.seed},
+                              {"sample_index", i},
+                              {"num_samples", a.n},
+                              {"temperature", a.temperature},
+                              {"fps", fps},
+                              {"frames", num_frames},
+                              {"control", control_desc},
+                              {"content", a.content},
+                              {"style", a.style},
+                              {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
+    io::write_json(base + ".json", sidecar);
+  }
+  std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s) to %s\n", a.n, num_frames, (num_frames - 1) / fps,
+               a.out_dir.c_str());
+}
+
+}  // namespace
+
+void add_model_commands(CLI::App& app, Action* action) {
+  auto t = std::make_shared<TrainArgs>();
+  CLI::App* train = app.add_subcommand("train", "Train a model family on a prepared dataset into a run directory");
+  t->cmd = train;
+  nn::TrainOptions& o = t->options;
+  train->add_option("family", t->family, "model family: " + [] {
+    std::string s;
+    for (const auto& f : nn::model_families()) s += (s.empty() ? "" : ", ") + f;
+    return s;
+  }())->required();
+  train->add_option("--data", o.data_dir, "prepared dataset directory (mosyn data prepare)")->required();
+  train->add_option("--out,-o", o.out_dir, "run directory to create (or continue with --resume)")->required();
+  train->add_option("--config", t->config_file, "JSON file {\"model\": {...}, \"train\": {...}}; flags override it");
+  train->add_option("--preset", t->preset, "named model preset, e.g. 'paper' for MoGlow's published size");
+  train->add_option("--steps", o.steps, "total optimiser steps")->capture_default_str();
+  train->add_option("--batch", o.batch, "windows per batch")->capture_default_str();
+  train->add_option("--window", o.window, "frames per training window (0: the dataset's)");
+  train->add_option("--lr", o.lr, "peak learning rate (Adam)")->capture_default_str();
+  train->add_option("--warmup", o.warmup, "Noam warm-up steps (0: constant learning rate)")->capture_default_str();
+  train->add_option("--seed", o.seed, "seed of initialisation, data order and dropout")->capture_default_str();
+  train->add_option("--threads", o.threads, "CPU threads (default: all cores)");
+  train->add_option("--device", o.device, "cpu or cuda")->capture_default_str();
+  train->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints")->capture_default_str();
+  train->add_option("--validate-every", o.validate_every, "steps between validations")->capture_default_str();
+  train->add_flag("--resume", o.resume, "continue the run in --out exactly where it stopped");
+  train->add_flag("--overwrite", o.overwrite, "replace an existing run in --out");
+  train->callback([action, t] { *action = [t] { run_train(*t); }; });
+
+  auto s = std::make_shared<SampleArgs>();
+  CLI::App* sample = app.add_subcommand(
+      "sample", "Draw N different motions from a trained run along a path, a control file or a dataset clip");
+  sample->add_option("run_dir", s->run_dir, "run directory (mosyn train) or a shipped model under models/")->required();
+  sample->add_option("--out,-o", s->out_dir, "folder for the BVH (+ NPY) files and their JSON sidecars")->required();
+  sample->add_option("--n", s->n, "number of motions")->capture_default_str();
+  sample->add_option("--seed", s->seed, "random seed: the same seed and inputs give identical files")
+      ->capture_default_str();
+  sample->add_option("--seconds", s->seconds, "duration in seconds (default: as long as the control)");
+  sample->add_option("--temperature", s->temperature, "latent noise scale (1: the model's distribution)")
+      ->capture_default_str();
+  sample->add_flag("--positions", s->positions, "also write world joint positions in metres as NPY [T,J,3]");
+  sample->add_option("--path", s->path,
+                     "ground path 'x,z x,z ...' in metres (a third number 'x,z,s' stands s seconds there; "
+                     "one point stands still); default '0,0 0,4 3,7'");
+  sample->add_option("--speed", s->speed_mps, "walking speed along --path, m/s")->capture_default_str();
+  sample->add_option("--control", s->control_file, "BVH whose root motion is reused, or CSV of dx,dz,dtheta per frame");
+  sample->add_option("--data", s->data_dir, "take the control of a dataset clip (with --clip, --split)");
+  sample->add_option("--split", s->split, "dataset split for --data")->capture_default_str();
+  sample->add_option("--clip", s->clip, "clip index in the split for --data");
+  sample->add_option("--content", s->content, "content label, for label-conditioned families");
+  sample->add_option("--style", s->style, "style label, for label-conditioned families");
+  sample->add_option("--checkpoint", s->checkpoint, "checkpoint file in the run directory (e.g. best.pt)")
+      ->capture_default_str();
+  sample->add_option("--prefix", s->prefix, "output file name prefix")->capture_default_str();
+  sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
+  sample->callback([action, s] { *action = [s] { run_sample(*s); }; });
+}
 
 }  // namespace mosyn::cli

@@ -1,0 +1,139 @@
+// `mosyn data prepare`, `data info`, `train` and `sample` end to end on a small synthetic source.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli_test_util.h"
+#include "data/prepare.h"
+#include "io/bvh.h"
+#include "io/json_file.h"
+#include "io/npy.h"
+
+namespace mosyn {
+namespace {
+
+using testing::fresh_dir;
+using testing::run_mosyn;
+using testing::slurp;
+using ::testing::HasSubstr;
+
+// One synthetic source, dataset and tiny run shared by the tests of this file.
+class CliModelTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = new std::string(fresh_dir("cli_model").string());
+    data::write_synthetic_source(*root_ + "/source", 2, 90, 3);
+    const auto prep = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ +
+                                "/dataset --window 40 --hop 10 --mirror --val 0.25 --threads 2");
+    ASSERT_EQ(prep.exit_code, 0) << prep.err;
+    std::ofstream(*root_ + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 4}})";
+    const auto train = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ +
+                                 "/run --config " + *root_ + "/tiny.json --steps 6 --batch 4 --window 20 "
+                                 "--warmup 0 --validate-every 3 --checkpoint-every 3 --threads 1");
+    ASSERT_EQ(train.exit_code, 0) << train.err;
+  }
+  static void TearDownTestSuite() { delete root_; }
+  static std::string* root_;
+};
+std::string* CliModelTest::root_ = nullptr;
+
+TEST_F(CliModelTest, DataInfoDescribesTheDataset) {
+  const auto r = run_mosyn("data info " + *root_ + "/dataset");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("rotations"));
+  EXPECT_THAT(r.out, HasSubstr("walk-turn-left"));
+}
+
+TEST_F(CliModelTest, PrepareRefusesToOverwriteWithoutFlag) {
+  const auto r = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/dataset");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr(*root_ + "/dataset"));
+}
+
+TEST_F(CliModelTest, PrepareRejectsBadFlagValues) {
+  EXPECT_EQ(run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/x --form quaternions").exit_code, 2);
+  EXPECT_EQ(run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/x --val 1.5").exit_code, 2);
+  EXPECT_EQ(run_mosyn("data prepare /nonexistent --out " + *root_ + "/x").exit_code, 2);
+}
+
+TEST_F(CliModelTest, RunDirectoryIsSelfDescribing) {
+  for (const char* f : {"config.json", "stats.json", "checkpoint.pt", "log.jsonl"})
+    EXPECT_TRUE(std::filesystem::exists(*root_ + "/run/" + f)) << f;
+  const nlohmann::json config = io::read_json(*root_ + "/run/config.json");
+  EXPECT_EQ(config["family"], "moglow");
+  EXPECT_EQ(config["model"]["num_steps"], 2);
+}
+
+TEST_F(CliModelTest, TrainRefusesExistingRunWithoutResumeOrOverwrite) {
+  const auto r = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ + "/run --steps 1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("resume or overwrite"));
+}
+
+TEST_F(CliModelTest, TrainRejectsUnknownFamily) {
+  const auto r = run_mosyn("train nosuchmodel --data " + *root_ + "/dataset --out " + *root_ + "/run2 --steps 1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("nosuchmodel"));
+}
+
+TEST_F(CliModelTest, SampleWritesBvhNpyAndSidecars) {
+  const std::string out = *root_ + "/samples";
+  const auto r = run_mosyn("sample " + *root_ + "/run --out " + out +
+                           " --n 2 --seed 7 --path '0,0 0,2 2,3' --positions --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (int i = 0; i < 2; ++i) {
+    const std::string base = out + "/sample_00" + std::to_string(i);
+    const io::BvhFile bvh = io::read_bvh(base + ".bvh");
+    EXPECT_GT(bvh.num_frames, 30);
+    const io::NpyArray npy = io::read_npy(base + ".npy");
+    EXPECT_EQ(npy.shape[0], bvh.num_frames);
+    const nlohmann::json sidecar = io::read_json(base + ".json");
+    EXPECT_EQ(sidecar["seed"], 7);
+    EXPECT_EQ(sidecar["model"]["family"], "moglow");
+    EXPECT_EQ(sidecar["control"]["kind"], "path");
+  }
+}
+
+TEST_F(CliModelTest, SameSeedSameFilesDifferentSeedDifferentFiles) {
+  const std::string args = " --n 1 --path '0,0 0,2' --threads 1 --seconds 3";
+  ASSERT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/s1 --seed 3" + args).exit_code, 0);
+  ASSERT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/s2 --seed 3" + args).exit_code, 0);
+  ASSERT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/s3 --seed 4" + args).exit_code, 0);
+  const std::string a = slurp(*root_ + "/s1/sample_000.bvh"), b = slurp(*root_ + "/s2/sample_000.bvh"),
+                    c = slurp(*root_ + "/s3/sample_000.bvh");
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+}
+
+TEST_F(CliModelTest, SampleFollowsAControlBvh) {
+  const auto r = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/ctl --n 1 --threads 1 --control " + *root_ +
+                           "/source/data/dataset-9_walk_normal_001.bvh");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(io::read_bvh(*root_ + "/ctl/sample_000.bvh").num_frames, 90);
+}
+
+TEST_F(CliModelTest, SampleErrors) {
+  EXPECT_EQ(run_mosyn("sample /nonexistent/run --out " + *root_ + "/e").exit_code, 1);
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --path 'a,b'").exit_code, 2);
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --n 0").exit_code, 2);
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --path '0,0' --control x.csv").exit_code, 2);
+  const auto missing = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --control /nonexistent.csv");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr("/nonexistent.csv"));
+}
+
+TEST_F(CliModelTest, TruncatedCheckpointIsAClearError) {
+  const std::string run2 = *root_ + "/run_truncated";
+  std::filesystem::remove_all(run2);
+  std::filesystem::copy(*root_ + "/run", run2);
+  const std::string ckpt = run2 + "/checkpoint.pt";
+  std::filesystem::resize_file(ckpt, std::filesystem::file_size(ckpt) / 2);
+  const auto r = run_mosyn("sample " + run2 + " --out " + *root_ + "/t --n 1 --threads 1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("checkpoint.pt"));
+}
+
+}  // namespace
+}  // namespace mosyn
