@@ -192,8 +192,9 @@ FlowStepImpl::FlowStepImpl(int dim, int cond_dim, int hidden, int layers, double
 }
 
 std::tuple<torch::Tensor, torch::Tensor> FlowStepImpl::forward(const torch::Tensor& x, const torch::Tensor& cond,
-                                                               c10::optional<LstmState>& state) {
-  if (is_training() && !actnorm->initialized()) actnorm->initialize(x.detach());
+                                                               c10::optional<LstmState>& state,
+                                                               bool initialize_actnorm) {
+  if (initialize_actnorm && !actnorm->initialized()) actnorm->initialize(x.detach());
   auto a = actnorm->forward(x);
   auto b = linear->forward(a);
   auto [z, logdet] = coupling->forward(b, cond, state);
@@ -231,7 +232,8 @@ torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::T
 
 MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::Tensor& control,
                                        const torch::Tensor& history_keep,
-                                       const std::vector<c10::optional<LstmState>>* init_states) {
+                                       const std::vector<c10::optional<LstmState>>* init_states,
+                                       bool initialize_actnorm) {
   const int64_t tau = options_.tau;
   if (pose.dim() != 3 || pose.size(2) != context_.pose_dim)
     throw Error("moglow: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
@@ -249,7 +251,7 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
   if (init_states) e.states = *init_states;
   torch::Tensor logdet = torch::zeros({x.size(0), x.size(1)}, x.options());
   for (size_t k = 0; k < steps.size(); ++k) {
-    auto [z, ld] = steps[k]->forward(x, cond, e.states[k]);
+    auto [z, ld] = steps[k]->forward(x, cond, e.states[k], initialize_actnorm);
     x = z;
     logdet = logdet + ld;
   }
@@ -272,7 +274,7 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     keep = torch::bernoulli(torch::full({batch.pose.size(0), batch.pose.size(1)}, 1.0 - dropout_))
                .to(batch.pose.device());
   }
-  auto e = encode(batch.pose, batch.control, keep);
+  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training());
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
   auto nll_frame = -ll.mean();

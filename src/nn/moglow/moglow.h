@@ -112,8 +112,10 @@ class FlowStepImpl : public torch::nn::Module {
  public:
   FlowStepImpl(int dim, int cond_dim, int hidden, int layers, double scale_eps);
   // x [T, B, D] -> (z [T, B, D], logdet [T, B]).
+  // initialize_actnorm: data-dependent ActNorm initialisation from x if not yet initialised.
   std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x, const torch::Tensor& cond,
-                                                   c10::optional<LstmState>& state);
+                                                   c10::optional<LstmState>& state,
+                                                   bool initialize_actnorm = false);
   torch::Tensor reverse(const torch::Tensor& z, const torch::Tensor& cond, c10::optional<LstmState>& state,
                         const torch::Tensor& w_inverse);
 
@@ -152,10 +154,12 @@ class MoGlowImpl : public MotionModel {
   };
   // pose [B, T, D], control [B, T, C] standardised, T > tau. history_keep (optional [B, T] of
   // 0/1) multiplies pose frames before they enter the history (data dropout). init_states
-  // (optional, per step) continues a previous window.
+  // (optional, per step) continues a previous window. initialize_actnorm: initialise any
+  // uninitialised ActNorm from this data (loss() does so in training mode).
   Encoded encode(const torch::Tensor& pose, const torch::Tensor& control,
                  const torch::Tensor& history_keep = {},
-                 const std::vector<c10::optional<LstmState>>* init_states = nullptr);
+                 const std::vector<c10::optional<LstmState>>* init_states = nullptr,
+                 bool initialize_actnorm = false);
 
   // Per-frame log p(x_t | ...) [B, T - tau] (nats) without dropout.
   torch::Tensor log_likelihood(const torch::Tensor& pose, const torch::Tensor& control);

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -333,8 +334,10 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
     if (!std::isfinite(loss)) fail("non-finite loss (" + std::to_string(loss) + ")");
     optimizer.zero_grad();
     terms.loss().backward();
-    if (opts.grad_clip > 0) {
-      const double norm = torch::nn::utils::clip_grad_norm_(model->parameters(), opts.grad_clip);
+    {
+      // The norm is checked even without clipping, so a NaN gradient never reaches a checkpoint.
+      const double max_norm = opts.grad_clip > 0 ? opts.grad_clip : std::numeric_limits<double>::infinity();
+      const double norm = torch::nn::utils::clip_grad_norm_(model->parameters(), max_norm);
       if (!std::isfinite(norm)) fail("non-finite gradient norm");
     }
     optimizer.step();
