@@ -151,6 +151,24 @@ void run_metrics(const MetricsArgs& a) {
       j["fse_difference"] = std::isfinite(fse) ? nlohmann::json(fse) : nlohmann::json(nullptr);
     }
     j["footstep_curve"] = steps;
+    // DFN section 6.3: distance to the per-frame mean pose over time, for the files and the reference.
+    auto spread_curve = [](const std::vector<eval::MotionPositions>& set) -> nlohmann::json {
+      if (set.size() < 2) return nullptr;
+      int shortest = set[0].num_frames;
+      for (const auto& m : set) {
+        if (m.num_joints != set[0].num_joints) return nullptr;
+        shortest = std::min(shortest, m.num_frames);
+      }
+      if (shortest < 1) return nullptr;
+      std::vector<Eigen::MatrixXd> seqs;
+      for (const auto& m : set) seqs.push_back(m.sequence().topRows(shortest));
+      const eval::MeanPoseDistance d = eval::mean_pose_distance(seqs);
+      return {{"fps", set[0].fps},
+               {"mean_m", std::vector<double>(d.mean_m.data(), d.mean_m.data() + d.mean_m.size())},
+               {"std_m", std::vector<double>(d.std_m.data(), d.std_m.data() + d.std_m.size())}};
+    };
+    j["mean_pose_distance_curve"] = spread_curve(motions);
+    if (with_ref) j["reference_mean_pose_distance_curve"] = spread_curve(ref_motions);
     j["options"] = {{"v_tol_step_cmps", a.v_tol_step_cmps},
                     {"v_tol_max_cmps", a.v_tol_max_cmps},
                     {"toes", a.toes},

@@ -48,6 +48,8 @@ TEST(CliEvalTest, MetricsTableAndJson) {
   EXPECT_EQ(j["footstep_curve"]["f_est"].size(), 100u);
   EXPECT_EQ(j["footstep_curve"]["reference_f_est"].size(), 100u);
   EXPECT_LT(j["metrics"]["bone_length_rmse_cm"].get<double>(), 1e-6);
+  EXPECT_EQ(j["mean_pose_distance_curve"]["mean_m"].size(), 60u);
+  EXPECT_TRUE(j["reference_mean_pose_distance_curve"].is_null());
 }
 
 TEST(CliEvalTest, MetricsErrors) {
