@@ -207,6 +207,9 @@ TEST(PredictionTest, SpectralEntropyOfToneAndImpulse) {
   EXPECT_NEAR(spectral_entropy(tone), 0.0, 1e-9);
   EXPECT_NEAR(spectral_entropy(impulse), std::log(8.0), 1e-12);  // flat over k = 1..8
   EXPECT_NEAR(spectral_entropy_difference({impulse}, {tone}), std::log(8.0), 1e-9);
+  Eigen::MatrixXd odd = Eigen::MatrixXd::Zero(15, 1);  // odd length: k = 1..7, still flat
+  odd(4, 0) = 2.5;
+  EXPECT_NEAR(spectral_entropy(odd), std::log(7.0), 1e-12);
   // Constant columns carry no spectrum and are skipped.
   Eigen::MatrixXd both(n, 2);
   both << impulse, Eigen::VectorXd::Constant(n, 5.0);
