@@ -1,6 +1,7 @@
 // Separate from sampling.cpp: no LibTorch, and linked only by users of decode_motion.
 #include "core/error.h"
 #include "data/representation.h"
+#include "io/bvh.h"
 #include "nn/sampling.h"
 
 namespace mosyn::nn {
@@ -17,6 +18,11 @@ Clip decode_motion(const LoadedRun& run, const std::vector<float>& pose, const s
   clip.motion = data::decode(run.dataset.skeleton, run.dataset.layout, pose.data(), control.data(),
                              static_cast<int>(t), run.dataset.fps);
   return clip;
+}
+
+void write_motion_bvh(const std::string& path, const LoadedRun& run, const std::vector<float>& pose,
+                      const std::vector<float>& control) {
+  io::write_bvh(path, io::from_clip(decode_motion(run, pose, control)));
 }
 
 }  // namespace mosyn::nn

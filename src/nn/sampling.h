@@ -31,4 +31,8 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
 // the origin facing heading 0.
 Clip decode_motion(const LoadedRun& run, const std::vector<float>& pose, const std::vector<float>& control);
 
+// decode_motion written as a BVH file (io::from_clip, CMU-like channel layout) atomically.
+void write_motion_bvh(const std::string& path, const LoadedRun& run, const std::vector<float>& pose,
+                      const std::vector<float>& control);
+
 }  // namespace mosyn::nn

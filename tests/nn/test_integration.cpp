@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 
 #include "core/error.h"
 #include "data/prepare.h"
+#include "io/bvh.h"
 #include "nn/generator.h"
 #include "nn/run.h"
 #include "nn/sampling.h"
@@ -57,9 +59,61 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   EXPECT_EQ(clip.motion.num_frames, t);
   EXPECT_EQ(clip.motion.num_joints, run.dataset.skeleton.num_joints());
   EXPECT_NO_THROW(clip.motion.validate());
+  const auto bvh = (root / "sample.bvh").string();
+  nn::write_motion_bvh(bvh, run, poses[1], control);
+  EXPECT_EQ(io::to_clip(io::read_bvh(bvh)).motion.num_frames, t);
 
   nn::Generator gen(o.out_dir, nn::GeneratorOptions{});
   for (int f = 0; f < 5; ++f) gen.step({0.0f, 0.04f, 0.0f});
   EXPECT_GT(gen.root(0).position.norm(), 0.0);
+  fs::remove_all(root);
+}
+
+// Real data (skips unless the shared archives are unpacked; MOSYN_NN_DATA_CACHE overrides the
+// location): a small MoGlow on Bandai-Namco walks learns and samples decodable motion.
+TEST(RealDataMoGlow, BandaiWalksTrainAndSample) {
+  const char* env = std::getenv("MOSYN_NN_DATA_CACHE");
+  const std::string cache = env ? env : MOSYN_DATA_CACHE;
+  const std::string bandai = cache + "/bandai-namco/Bandai-Namco-Research-Motiondataset-2";
+  if (!fs::exists(bandai)) GTEST_SKIP() << "shared data not unpacked";
+  const auto root = fs::temp_directory_path() / ("mosyn_nn_real_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  data::PrepareOptions po;
+  po.input_dirs = {bandai};
+  po.output_dir = (root / "ds").string();
+  po.contents = {"walk"};
+  po.styles = {"normal"};
+  po.window_frames = 40;
+  po.window_hop = 20;
+  po.val_fraction = 0.2;
+  data::prepare_dataset(po);
+
+  nn::TrainOptions o;
+  o.data_dir = po.output_dir;
+  o.out_dir = (root / "run").string();
+  o.model_config = {{"num_steps", 4}, {"hidden", 64}};
+  o.steps = 40;
+  o.batch = 12;
+  o.warmup = 10;
+  o.threads = 2;
+  o.validate_every = 20;
+  o.log_every = 5;
+  std::vector<double> losses;
+  nn::TrainCallbacks cb;
+  cb.on_progress = [&](const nn::TrainProgress& p) { losses.push_back(p.loss); };
+  nn::train(o, cb);
+  ASSERT_GE(losses.size(), 4u);
+  const double first = (losses[0] + losses[1]) / 2, last = (losses[losses.size() - 1] + losses[losses.size() - 2]) / 2;
+  EXPECT_LT(last, first) << "first " << first << " last " << last;
+
+  auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 2});
+  const auto ds = data::Dataset::open(po.output_dir);
+  const auto& clip = ds.clips("val").at(0);
+  const int t = std::min(60, clip.num_frames);
+  std::vector<float> control(clip.control.begin(), clip.control.begin() + 3 * t);
+  auto poses = nn::sample_motions(run, control, 1, 1);
+  for (float v : poses[0]) ASSERT_TRUE(std::isfinite(v));
+  Clip out = nn::decode_motion(run, poses[0], control);
+  EXPECT_NO_THROW(out.motion.validate());
   fs::remove_all(root);
 }
