@@ -399,6 +399,40 @@ double spectral_entropy_difference(const std::vector<Eigen::MatrixXd>& samples,
   return a / static_cast<double>(samples.size()) - b / static_cast<double>(ground_truths.size());
 }
 
+PredictionMetrics evaluate_predictions(const std::vector<PredictionWindow>& windows, double multimodal_threshold_m) {
+  if (windows.empty()) throw Error("evaluate_predictions needs at least one window");
+  const Eigen::Index d = windows[0].last_context_pose.size();
+  Eigen::MatrixXd context(static_cast<Eigen::Index>(windows.size()), d);
+  for (size_t i = 0; i < windows.size(); ++i) {
+    if (windows[i].last_context_pose.size() != d) throw Error("evaluate_predictions: context poses differ in size");
+    context.row(static_cast<Eigen::Index>(i)) = windows[i].last_context_pose.transpose();
+  }
+  const auto groups = multimodal_ground_truth(context, multimodal_threshold_m);
+  PredictionMetrics m;
+  m.num_windows = static_cast<int>(windows.size());
+  std::vector<Eigen::MatrixXd> all_samples, all_truths;
+  for (size_t i = 0; i < windows.size(); ++i) {
+    const PredictionWindow& w = windows[i];
+    m.apd_m += average_pairwise_distance(w.samples);
+    m.ade_m += average_displacement_error(w.samples, w.ground_truth);
+    m.fde_m += final_displacement_error(w.samples, w.ground_truth);
+    std::vector<Eigen::MatrixXd> truths;
+    for (int j : groups[i]) truths.push_back(windows[j].ground_truth);
+    m.mmade_m += multimodal_ade(w.samples, truths);
+    m.mmfde_m += multimodal_fde(w.samples, truths);
+    all_samples.insert(all_samples.end(), w.samples.begin(), w.samples.end());
+    all_truths.push_back(w.ground_truth);
+  }
+  const double n = static_cast<double>(windows.size());
+  m.apd_m /= n;
+  m.ade_m /= n;
+  m.fde_m /= n;
+  m.mmade_m /= n;
+  m.mmfde_m /= n;
+  m.fse = spectral_entropy_difference(all_samples, all_truths);
+  return m;
+}
+
 MeanPoseDistance mean_pose_distance(const std::vector<Eigen::MatrixXd>& samples) {
   if (samples.empty()) throw Error("mean_pose_distance needs at least one sample");
   check_same_shape(samples, samples[0], "mean_pose_distance");

@@ -179,6 +179,26 @@ double spectral_entropy(const Eigen::MatrixXd& sequence);
 double spectral_entropy_difference(const std::vector<Eigen::MatrixXd>& samples,
                                    const std::vector<Eigen::MatrixXd>& ground_truths);
 
+// One test window of a stochastic-prediction evaluation.
+struct PredictionWindow {
+  std::vector<Eigen::MatrixXd> samples;  // K predicted futures [T, D]
+  Eigen::MatrixXd ground_truth;          // the real future [T, D]
+  Eigen::VectorXd last_context_pose;     // [D] the last observed pose (for the multi-modal GT)
+};
+
+// The DLow / MOJO protocol over test windows, each value the mean over windows.
+struct PredictionMetrics {
+  int num_windows = 0;
+  double apd_m = 0, ade_m = 0, fde_m = 0, mmade_m = 0, mmfde_m = 0;
+  double fse = 0;  // mean spectral entropy of all samples minus that of all ground truths
+};
+
+// APD of each window's samples; ADE/FDE against its ground truth; MMADE/MMFDE against the ground
+// truths of every window whose last context pose lies within multimodal_threshold_m of its own
+// (multimodal_ground_truth); FSE over all samples and ground truths. Throws for no windows or
+// shapes that disagree.
+PredictionMetrics evaluate_predictions(const std::vector<PredictionWindow>& windows, double multimodal_threshold_m);
+
 // ---------------------------------------------------------------------------------------------
 // Distribution over time (DFN, Chen et al. 2020, section 6.3).
 

@@ -190,6 +190,25 @@ TEST(PredictionTest, AdeFdeOfKnownOffsets) {
   EXPECT_THROW(average_displacement_error({Eigen::MatrixXd::Zero(3, 3)}, gt), Error);
 }
 
+TEST(PredictionTest, EvaluatePredictionsOverWindows) {
+  // Two windows with the same last context pose (one multi-modal group), one far away.
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(3, 2);
+  const Eigen::MatrixXd one = Eigen::MatrixXd::Constant(3, 2, 1.0);  // sqrt(2) per frame from zero
+  std::vector<PredictionWindow> w(3);
+  w[0] = {{zero, zero}, zero, Eigen::Vector2d(0, 0)};
+  w[1] = {{zero, one}, one, Eigen::Vector2d(0.1, 0)};
+  w[2] = {{one, one}, zero, Eigen::Vector2d(5, 0)};
+  const PredictionMetrics m = evaluate_predictions(w, 0.5);
+  EXPECT_EQ(m.num_windows, 3);
+  EXPECT_NEAR(m.apd_m, std::sqrt(6.0) / 3, 1e-12);           // only window 1 is diverse: ||one|| = sqrt 6
+  EXPECT_NEAR(m.ade_m, std::sqrt(2.0) / 3, 1e-12);           // windows 0, 1: exact; 2: sqrt 2
+  EXPECT_NEAR(m.fde_m, std::sqrt(2.0) / 3, 1e-12);
+  // Window 0 vs {zero, one}: (0 + sqrt 2) / 2; window 1: (0 + 0) / 2; window 2 vs {zero}: sqrt 2.
+  EXPECT_NEAR(m.mmade_m, (std::sqrt(2.0) / 2 + std::sqrt(2.0)) / 3, 1e-12);
+  EXPECT_NEAR(m.mmfde_m, (std::sqrt(2.0) / 2 + std::sqrt(2.0)) / 3, 1e-12);
+  EXPECT_THROW(evaluate_predictions({}, 0.5), Error);
+}
+
 TEST(PredictionTest, MultimodalGroundTruthByLastContextPose) {
   Eigen::MatrixXd c(3, 2);
   c << 0, 0, 0.3, 0.4, 3, 0;
