@@ -36,16 +36,16 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   o.model_config = {{"num_steps", 2}, {"hidden", 16}, {"tau", 4}};
   o.steps = 4;
   o.batch = 4;
-  o.threads = 2;
+  o.threads = 1;
   o.validate_every = 2;
   nn::train(o);
 
-  auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 2});
+  auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 1});
   EXPECT_EQ(run.step, 4);
   EXPECT_EQ(run.context.pose_form, "rotations");
   EXPECT_EQ(run.context.pose_dim, run.dataset.layout.pose_dim);
   EXPECT_FALSE(run.dataset.content_labels.empty());
-  auto best = nn::load_run(o.out_dir, {"best.pt", "cpu", 2});
+  auto best = nn::load_run(o.out_dir, {"best.pt", "cpu", 1});
   EXPECT_GE(best.step, 2);
 
   // A straight walk: 1.2 m/s forward at the dataset's frame rate.
@@ -63,7 +63,9 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   nn::write_motion_bvh(bvh, run, poses[1], control);
   EXPECT_EQ(io::to_clip(io::read_bvh(bvh)).motion.num_frames, t);
 
-  nn::Generator gen(o.out_dir, nn::GeneratorOptions{});
+  nn::GeneratorOptions go;
+  go.threads = 1;
+  nn::Generator gen(o.out_dir, go);
   for (int f = 0; f < 5; ++f) gen.step({0.0f, 0.04f, 0.0f});
   EXPECT_GT(gen.root(0).position.norm(), 0.0);
   fs::remove_all(root);
@@ -95,7 +97,7 @@ TEST(RealDataMoGlow, BandaiWalksTrainAndSample) {
   o.steps = 40;
   o.batch = 12;
   o.warmup = 10;
-  o.threads = 2;
+  o.threads = 1;
   o.validate_every = 20;
   o.log_every = 5;
   std::vector<double> losses;
@@ -106,7 +108,7 @@ TEST(RealDataMoGlow, BandaiWalksTrainAndSample) {
   const double first = (losses[0] + losses[1]) / 2, last = (losses[losses.size() - 1] + losses[losses.size() - 2]) / 2;
   EXPECT_LT(last, first) << "first " << first << " last " << last;
 
-  auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 2});
+  auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 1});
   const auto ds = data::Dataset::open(po.output_dir);
   const auto& clip = ds.clips("val").at(0);
   const int t = std::min(60, clip.num_frames);

@@ -78,7 +78,7 @@ TrainOptions tiny_options(const fs::path& dir) {
   o.batch = 4;
   o.lr = 1e-3;
   o.warmup = 5;
-  o.threads = 2;
+  o.threads = 1;
   o.checkpoint_every = 4;
   o.validate_every = 4;
   o.log_every = 2;
@@ -127,8 +127,8 @@ TEST(Training, ResumeEqualsUninterruptedTraining) {
   EXPECT_EQ(rb.step, 12);
   EXPECT_EQ(ra.last_loss, rb.last_loss);
 
-  auto a = load_run(dir_a.string(), {"checkpoint.pt", "cpu", 2});
-  auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 2});
+  auto a = load_run(dir_a.string(), {"checkpoint.pt", "cpu", 1});
+  auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 1});
   EXPECT_EQ(a.step, 12);
   EXPECT_EQ(b.step, 12);
   // Same thread count, same ops: the resumed run is bit-for-bit identical.
@@ -182,7 +182,7 @@ TEST(Training, DivergenceStopsNamingTheStepAndKeepsLastCheckpoint) {
   ASSERT_NE(msg.find("at step"), std::string::npos) << "training did not diverge: '" << msg << "'";
   const int failed = std::stoi(msg.substr(msg.find("at step") + 8));
   if (failed > 1) {
-    auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 2});
+    auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
     EXPECT_EQ(run.step, failed - 1);
   }
   fs::remove_all(dir);
@@ -198,7 +198,7 @@ TEST(Training, TruncatedCheckpointGivesClearError) {
   const auto size = fs::file_size(ckpt);
   fs::resize_file(ckpt, size / 2);
   try {
-    load_run(dir.string());
+    load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("checkpoint.pt"), std::string::npos) << e.what();
@@ -206,10 +206,10 @@ TEST(Training, TruncatedCheckpointGivesClearError) {
   {
     std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << "garbage";
   }
-  EXPECT_THROW(load_run(dir.string()), Error);
+  EXPECT_THROW(load_run(dir.string(), {"checkpoint.pt", "cpu", 1}), Error);
   fs::remove(dir / "config.json");
   try {
-    load_run(dir.string());
+    load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("config.json"), std::string::npos) << e.what();
@@ -223,7 +223,7 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   auto o = tiny_options(dir);
   o.steps = 6;
   train(o, ds);
-  auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 2});
+  auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
   const auto& clip = ds.val_[0];
   const int t = 20;
   std::vector<float> control(clip.control.begin(), clip.control.begin() + 3 * t);
@@ -240,7 +240,7 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   GeneratorOptions go;
   go.batch = 2;
   go.seed = 5;
-  go.threads = 2;
+  go.threads = 1;
   Generator gen(dir.string(), go);
   EXPECT_EQ(gen.pose_dim(), kDim);
   for (int f = 0; f < t; ++f) {
