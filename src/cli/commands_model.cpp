@@ -12,9 +12,11 @@
 #include "core/kinematics.h"
 #include "data/control.h"
 #include "data/dataset.h"
+#include "io/atomic_file.h"
 #include "io/bvh.h"
 #include "io/json_file.h"
 #include "io/npy.h"
+#include "nn/checkpoint.h"
 #include "nn/model.h"
 #include "nn/run.h"
 #include "nn/sampling.h"
@@ -225,6 +227,26 @@ void run_sample(const SampleArgs& a) {
                a.out_dir.c_str());
 }
 
+// A run directory without optimiser state: what ships under models/.
+void run_export(const std::string& run_dir, const std::string& out_dir, const std::string& checkpoint, bool overwrite) {
+  namespace fs = std::filesystem;
+  if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !overwrite)
+    throw Error(out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
+  nn::LoadOptions load;
+  load.checkpoint = checkpoint;
+  const nn::LoadedRun run = nn::load_run(run_dir, load);
+  fs::create_directories(out_dir);
+  for (const char* name : {"config.json", "stats.json", "log.jsonl"}) {
+    const fs::path from = fs::path(run_dir) / name;
+    if (fs::exists(from)) io::write_file_atomically((fs::path(out_dir) / name).string(), io::read_file(from.string()));
+  }
+  nn::CheckpointState state;
+  state.step = run.step;
+  nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.model, nullptr, state);
+  std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only)\n", run.step, run_dir.c_str(),
+               checkpoint.c_str(), out_dir.c_str());
+}
+
 }  // namespace
 
 void add_model_commands(CLI::App& app, Action* action) {
@@ -282,6 +304,19 @@ void add_model_commands(CLI::App& app, Action* action) {
   sample->add_option("--prefix", s->prefix, "output file name prefix")->capture_default_str();
   sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
   sample->callback([action, s] { *action = [s] { run_sample(*s); }; });
+
+  struct ExportArgs {
+    std::string run_dir, out_dir, checkpoint = "best.pt";
+    bool overwrite = false;
+  };
+  auto e = std::make_shared<ExportArgs>();
+  CLI::App* exp = app.add_subcommand(
+      "export", "Copy a run's config, statistics, log and weights (no optimiser state) to a model directory to ship");
+  exp->add_option("run_dir", e->run_dir, "trained run directory")->required();
+  exp->add_option("--out,-o", e->out_dir, "model directory to write (usable as RUN_DIR of sample)")->required();
+  exp->add_option("--checkpoint", e->checkpoint, "checkpoint to export")->capture_default_str();
+  exp->add_flag("--overwrite", e->overwrite, "replace the model files in an existing --out");
+  exp->callback([action, e] { *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite); }; });
 }
 
 }  // namespace mosyn::cli
