@@ -253,5 +253,18 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
       for (int d = 0; d < kDim; ++d) EXPECT_NEAR(pose[k * kDim + d], a[k][f * kDim + d], 1e-4) << f;
   }
   EXPECT_EQ(gen.frames(), t);
+
+  // Root pose integration: forward 0.1 m per frame facing +Z (heading 0, Y up, metres), then a
+  // quarter turn.
+  GeneratorOptions one;
+  one.threads = 1;
+  Generator walker(dir.string(), one);
+  for (int f = 0; f < 3; ++f) walker.step({0.0f, 0.1f, 0.0f});
+  EXPECT_NEAR((walker.root(0).position - Eigen::Vector3d(0, 0, 0.3)).norm(), 0.0, 1e-6);
+  walker.step({0.0f, 0.0f, static_cast<float>(M_PI / 2)});
+  EXPECT_NEAR(walker.root(0).heading_rad, M_PI / 2, 1e-6);
+  walker.reset(1);
+  EXPECT_EQ(walker.frames(), 0);
+  EXPECT_NEAR(walker.root(0).position.norm(), 0.0, 1e-12);
   fs::remove_all(dir);
 }
