@@ -11,13 +11,19 @@ CACHE   ?= $(BUILD)/cache
 
 DEB_PACKAGES := build-essential cmake pkg-config libtorch-dev libopenblas0-openmp libeigen3-dev \
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libzip-dev \
-  libpng-dev libgif-dev libstb-dev libtinygltf-dev npm chromium
+  libpng-dev libgif-dev libstb-dev libtinygltf-dev
+# Tools checked by command, not package: a machine may have them from elsewhere (e.g. nodejs
+# with its own npm), and installing Debian's package over that would conflict.
+DEB_TOOLS := npm:npm chromium:chromium
 
 .PHONY: demo test deps configure build clean
 
 deps:
 	@missing=""; for p in $(DEB_PACKAGES); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	for t in $(DEB_TOOLS); do \
+	  command -v $${t%%:*} >/dev/null 2>&1 || missing="$$missing $${t#*:}"; \
 	done; \
 	if [ -n "$$missing" ]; then \
 	  echo "installing:$$missing"; \
