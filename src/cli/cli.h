@@ -48,4 +48,10 @@ void add_eval_commands(CLI::App& app, Action* action);   // metrics, render, vie
 // Number of hardware threads, at least 1.
 int default_threads();
 
+// "a, b,c" -> {"a", "b", "c"}: comma-separated items, spaces dropped, empty items skipped.
+std::vector<std::string> split_commas(const std::string& text);
+
+// Lower-case extension without the dot ("bvh" for "x/Walk.BVH"), "" when there is none.
+std::string extension_of(const std::string& path);
+
 }  // namespace mosyn::cli

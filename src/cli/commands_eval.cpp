@@ -1,4 +1,6 @@
-// `mosyn metrics`, `mosyn render` and `mosyn view`: metrics and pictures of any BVH files.
+// `mosyn metrics`, `mosyn render` and `mosyn view`: metrics and pictures of any BVH files;
+// `mosyn eval` and `mosyn report`: a trained run scored against held-out data, and its HTML page.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -7,39 +9,23 @@
 
 #include "cli/cli.h"
 #include "core/error.h"
+#include "data/control.h"
+#include "data/dataset.h"
+#include "eval/evaluate.h"
 #include "eval/metrics.h"
+#include "eval/report.h"
 #include "eval/set_metrics.h"
 #include "io/bvh.h"
+#include "io/atomic_file.h"
 #include "io/json_file.h"
+#include "nn/run.h"
+#include "nn/sampling.h"
 #include "render/image_io.h"
 #include "render/scene.h"
 #include "render/view.h"
 
 namespace mosyn::cli {
 namespace {
-
-std::string lower_extension(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot + 1);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-std::vector<std::string> split_commas(const std::string& text) {
-  std::vector<std::string> out;
-  std::string item;
-  for (char c : text + ",") {
-    if (c == ',') {
-      if (!item.empty()) out.push_back(item);
-      item.clear();
-    } else if (c != ' ') {
-      item += c;
-    }
-  }
-  return out;
-}
 
 std::string base_name(const std::string& path) { return std::filesystem::path(path).filename().string(); }
 
@@ -222,7 +208,7 @@ std::vector<render::RenderMotion> render_motions(const PictureArgs& a) {
 }
 
 void run_render(const PictureArgs& a) {
-  const std::string ext = lower_extension(a.out);
+  const std::string ext = extension_of(a.out);
   if (ext != "png" && ext != "gif" && ext != "mp4") throw UsageError("--out must end in .png, .gif or .mp4");
   if (a.width < 16 || a.height < 16 || a.width > 8192 || a.height > 8192)
     throw UsageError("--width and --height must be in 16..8192");
@@ -287,7 +273,7 @@ void run_render(const PictureArgs& a) {
 }
 
 void run_view(const PictureArgs& a) {
-  if (lower_extension(a.out) != "html" && lower_extension(a.out) != "htm") throw UsageError("--out must end in .html");
+  if (extension_of(a.out) != "html" && extension_of(a.out) != "htm") throw UsageError("--out must end in .html");
   if (!render::viewer_available())
     throw Error("the browser viewer is not available: mosyn was built without npm/node, which bundle three.js at "
                 "build time (install npm and rebuild)");
@@ -300,6 +286,112 @@ void run_view(const PictureArgs& a) {
   render::write_viewer_page(a.out, motions, title);
   std::fprintf(stderr, "wrote %s: open file://%s in a browser\n", a.out.c_str(),
                std::filesystem::absolute(a.out).lexically_normal().c_str());
+}
+
+// ---------------------------------------------------------------------------------------------
+// eval
+
+struct EvalArgs {
+  std::string run_dir, data_dir, out, classifier;
+  eval::EvalOptions options;
+  std::string foot_joints;
+  bool no_prediction = false;
+};
+
+void run_eval(EvalArgs a) {
+  eval::EvalOptions& o = a.options;
+  if (o.split != "val" && o.split != "train") throw UsageError("--split must be val or train");
+  if (o.num_samples < 1 || o.num_samples > 1000) throw UsageError("--n must be in [1, 1000]");
+  if (o.max_clips < 0) throw UsageError("--max-clips must not be negative");
+  if (!(o.temperature >= 0)) throw UsageError("--temperature must not be negative");
+  if (!(o.prefix_s > 0) || !(o.horizon_s > 0)) throw UsageError("--prefix and --horizon must be positive");
+  const std::vector<std::string> feet = split_commas(a.foot_joints);
+  if (!feet.empty() && feet.size() != 2 && feet.size() != 4)
+    throw UsageError("--foot-joints takes 2 names (left, right heel) or 4 (heels, then toes)");
+  o.metrics.foot_joints = feet;
+  o.prediction = !a.no_prediction;
+  o.classifier_dir = a.classifier;
+  const data::Dataset dataset = data::Dataset::open(a.data_dir);
+  ProgressLine progress;
+  const eval::EvalResult r = eval::evaluate(a.run_dir, dataset, o, [&](const eval::EvalProgress& p) {
+    progress.update(p.stage + " " + std::to_string(p.done) + "/" + std::to_string(p.total), p.done == p.total);
+  });
+  progress.finish();
+  std::printf("%s", eval::format_markdown(r).c_str());
+  if (!a.out.empty()) {
+    nlohmann::json j = r.to_json();
+    j["data"] = a.data_dir;
+    if (!a.classifier.empty()) j["classifier"] = a.classifier;
+    io::write_json(a.out, j);
+    std::fprintf(stderr, "wrote %s\n", a.out.c_str());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// report
+
+struct ReportArgs {
+  std::string run_dir, metrics, samples, out;
+  int threads = 0;
+};
+
+void run_report(const ReportArgs& a) {
+  namespace fs = std::filesystem;
+  const std::string ext = extension_of(a.out);
+  if (ext != "html" && ext != "htm") throw UsageError("--out must end in .html");
+  const fs::path run(a.run_dir);
+  if (!fs::exists(run / "config.json")) throw Error(a.run_dir + ": not a run directory (no config.json)");
+  eval::ReportInputs in;
+  in.title = "mosyn run " + fs::absolute(run).lexically_normal().string();
+  in.config = io::read_json((run / "config.json").string());
+  if (fs::exists(run / "log.jsonl")) in.curve = eval::read_training_log((run / "log.jsonl").string());
+  const std::string metrics_path =
+      !a.metrics.empty() ? a.metrics : fs::exists(run / "metrics.json") ? (run / "metrics.json").string() : "";
+  if (!metrics_path.empty()) in.metrics = eval::EvalResult::from_json(io::read_json(metrics_path));
+
+  std::vector<render::RenderMotion> motions;
+  if (!a.samples.empty()) {
+    if (!fs::is_directory(a.samples)) throw UsageError("--samples must be a folder of BVH files");
+    std::vector<std::string> files;
+    for (const auto& e : fs::directory_iterator(a.samples))
+      if (e.is_regular_file() && extension_of(e.path().string()) == "bvh") files.push_back(e.path().string());
+    std::sort(files.begin(), files.end());
+    if (files.empty()) throw UsageError("--samples: no .bvh file in " + a.samples);
+    const auto clips = read_clips(files);
+    for (size_t i = 0; i < clips.size(); ++i)
+      motions.push_back(render::render_motion_from_clip(clips[i], render::motion_color(static_cast<int>(i)), 0.0,
+                                                        base_name(files[i])));
+  } else {
+    // Three short motions along a gentle curve, sampled here. Families that do not generate
+    // motion say so (mosyn::Error), and the page notes it instead.
+    nn::LoadOptions load;
+    load.threads = a.threads;
+    const nn::LoadedRun loaded = nn::load_run(a.run_dir, load);
+    data::PathOptions po;
+    po.fps = loaded.dataset.fps;
+    po.seconds = 4.0;
+    const auto control = data::control_from_path(data::parse_path("0,0 0,2 1.5,4"), po);
+    try {
+      const auto poses = nn::sample_motions(loaded, control, 3, 1);
+      for (size_t i = 0; i < poses.size(); ++i)
+        motions.push_back(render::render_motion_from_clip(nn::decode_motion(loaded, poses[i], control),
+                                                          render::motion_color(static_cast<int>(i)), 0.0,
+                                                          "sample " + std::to_string(i + 1)));
+    } catch (const Error& e) {
+      in.viewer_note = std::string("No samples: ") + e.what();
+    }
+  }
+  if (!motions.empty()) {
+    if (render::viewer_available()) {
+      in.viewer_page = render::viewer_page(motions, "samples");
+      in.viewer_note = std::to_string(motions.size()) + " motions; drag to orbit the camera.";
+    } else {
+      in.viewer_note = "The browser viewer is not available: mosyn was built without npm/node.";
+    }
+  }
+  io::write_file_atomically(a.out, eval::report_html(in));
+  std::fprintf(stderr, "wrote %s: open file://%s in a browser\n", a.out.c_str(),
+               fs::absolute(a.out).lexically_normal().c_str());
 }
 
 }  // namespace
@@ -363,6 +455,43 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--out", a->out, "output .html page")->required();
     cmd->add_option("--title", a->title, "page title (default: the file names)");
     cmd->callback([action, a] { *action = [a] { run_view(*a); }; });
+  }
+  {
+    auto a = std::make_shared<EvalArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "eval",
+        "Score a trained run on held-out data: N samples per held-out control, every metric on the samples and on "
+        "the real clips (footsteps, skating, bone lengths, diversity, prediction ADE/FDE, IS/FID); Markdown table");
+    cmd->add_option("run", a->run_dir, "run directory (mosyn train --out)")->required();
+    cmd->add_option("--data", a->data_dir, "prepared dataset directory")->required();
+    cmd->add_option("--split", a->options.split, "split of the held-out clips: val or train (default val)");
+    cmd->add_option("--n", a->options.num_samples, "samples per control (default 10)");
+    cmd->add_option("--seed", a->options.seed, "random seed (default 1)");
+    cmd->add_option("--max-clips", a->options.max_clips, "evaluate at most this many clips, evenly spread (default all)");
+    cmd->add_option("--out", a->out, "also write every value to this JSON file (e.g. RUN/metrics.json)");
+    cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
+    cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
+    cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");
+    cmd->add_option("--horizon", a->options.horizon_s, "prediction: seconds predicted (default 2)");
+    cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
+                    "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
+    cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
+    cmd->add_option("--foot-joints", a->foot_joints,
+                    "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
+    cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");
+    cmd->callback([action, a] { *action = [a] { run_eval(*a); }; });
+  }
+  {
+    auto a = std::make_shared<ReportArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "report", "One self-contained HTML page about a run: config, training curves, metrics beside real data, "
+                  "sample motions in the browser viewer");
+    cmd->add_option("run", a->run_dir, "run directory")->required();
+    cmd->add_option("--metrics", a->metrics, "mosyn eval --out JSON (default: RUN/metrics.json when present)");
+    cmd->add_option("--samples", a->samples, "folder of BVH samples to show (default: sample 3 short motions)");
+    cmd->add_option("--out", a->out, "output .html page")->required();
+    cmd->add_option("--threads", a->threads, "CPU threads (default: all cores)");
+    cmd->callback([action, a] { *action = [a] { run_report(*a); }; });
   }
 }
 

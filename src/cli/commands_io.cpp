@@ -17,29 +17,6 @@
 namespace mosyn::cli {
 namespace {
 
-std::string extension_of(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot + 1);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-std::vector<std::string> split_list(const std::string& text) {
-  std::vector<std::string> out;
-  std::string item;
-  for (char c : text + ",") {
-    if (c == ',') {
-      if (!item.empty()) out.push_back(item);
-      item.clear();
-    } else if (c != ' ') {
-      item += c;
-    }
-  }
-  return out;
-}
-
 void run_info(const std::string& path) {
   const io::BvhFile bvh = io::read_bvh(path);
   const Skeleton& skeleton = bvh.skeleton;
@@ -85,7 +62,7 @@ void run_convert(const ConvertOptions& o) {
   const io::BvhFile bvh = io::read_bvh(o.input);
   Clip clip = io::to_clip(bvh);
   const bool reshaped = !o.joints.empty() || !o.drop_joints.empty();
-  if (reshaped) clip = data::subset_by_patterns(clip, split_list(o.drop_joints), split_list(o.joints));
+  if (reshaped) clip = data::subset_by_patterns(clip, split_commas(o.drop_joints), split_commas(o.joints));
   if (o.fps > 0) clip.motion = data::resample(clip.motion, o.fps);
 
   if (ext == "bvh") {

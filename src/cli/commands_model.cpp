@@ -153,8 +153,7 @@ void run_sample(const SampleArgs& a) {
   double start_heading = 0;
   nlohmann::json control_desc;
   if (!a.control_file.empty()) {
-    const std::string ext = std::filesystem::path(a.control_file).extension().string();
-    if (ext == ".csv" || ext == ".CSV") {
+    if (extension_of(a.control_file) == "csv") {
       control = data::control_from_csv(a.control_file);
     } else {
       control = data::control_from_clip(io::to_clip(io::read_bvh(a.control_file)), fps, &start_heading);
