@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "nn/classifier/classifier.h"
 #include "nn/moglow/moglow.h"
 
 namespace mosyn::nn {
@@ -31,6 +32,9 @@ std::mutex& registry_mutex() {
 // would be dropped by the linker.
 std::map<std::string, ModelFactory>& registry() {
   static std::map<std::string, ModelFactory> r = {
+      {"classifier", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
+         return make_classifier(c, ctx);
+       }},
       {"moglow", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
          return make_moglow(c, ctx);
        }},

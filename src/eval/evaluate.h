@@ -1,0 +1,98 @@
+// `mosyn eval`: a trained run scored on held-out data beside the held-out data itself. For each
+// held-out clip, its control (and labels) drive N random samples; every metric is computed with
+// the same code on the samples and on the real clips (see src/eval/README.md, "Eval protocol").
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "data/dataset.h"
+#include "eval/set_metrics.h"
+#include "nn/run.h"
+
+namespace mosyn::eval {
+
+struct EvalOptions {
+  std::string split = "val";     // dataset split of the held-out clips ("val" or "train")
+  int num_samples = 10;          // N samples per control
+  std::uint64_t seed = 1;        // clip i is sampled with seed + i (prediction: seed + 1000003 + i)
+  int max_clips = 0;             // at most this many clips (evenly spread over the split); 0 = all
+  double temperature = 1.0;      // latent standard-deviation multiplier
+  bool include_augmented = false;  // also evaluate mirrored / reversed copies in the split
+  // Stochastic prediction (families that can continue a given motion: supports_streaming()):
+  bool prediction = true;        // run it when the family supports it
+  double prefix_s = 1.0;         // observed real motion before the prediction
+  double horizon_s = 2.0;        // predicted motion, given the true control
+  double multimodal_threshold_m = 0.5;  // MMADE/MMFDE ground-truth grouping (whole-pose L2, metres)
+  std::string classifier_dir;    // a "classifier" run: adds IS, FID and accuracies ("" = none)
+  SetMetricsOptions metrics;     // footstep, skating and foot-joint options
+  int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
+};
+
+struct EvalProgress {
+  std::string stage;  // "sampling", "prediction", "classifier"
+  int done = 0;
+  int total = 0;
+};
+using EvalProgressCallback = std::function<void(const EvalProgress&)>;
+
+// One row of the table. NaN = does not apply (e.g. ADE of the real data).
+struct EvalRow {
+  std::string key;    // stable identifier, e.g. "footsteps.v_tol95_cmps", "prediction.ade_m"
+  std::string label;  // human-readable with unit
+  double model = 0;
+  double real = 0;
+};
+
+struct EvalResult {
+  std::string run_dir;
+  std::string family;
+  std::string split;
+  int num_samples = 0;
+  std::uint64_t seed = 0;
+  std::vector<std::string> clips;      // sources of the evaluated clips, in order
+  std::vector<int> clip_indices;       // their indices in dataset.clips(split)
+  int prediction_windows = 0;          // 0 when prediction did not run
+  std::vector<EvalRow> rows;
+
+  // The row with this key; throws mosyn::Error when absent.
+  const EvalRow& row(const std::string& key) const;
+  // {"run", "family", "split", "n", "seed", "clips", "prediction_windows",
+  //  "rows": [{"key", "label", "model", "real"}], "metrics": {key: {"model", "real"}}}, NaN as null.
+  nlohmann::json to_json() const;
+  // Reads what to_json wrote (for `mosyn report`). Throws mosyn::Error when malformed.
+  static EvalResult from_json(const nlohmann::json& j);
+};
+
+// Rows, in order:
+// - set metrics (set_metrics.h) of the real clips and, for the model, the mean over k = 1..N of
+//   the set of every clip's k-th sample (same size and controls as the real set, so counts such
+//   as footsteps compare directly);
+// - "diversity.apd_m" APD across the N samples of one control, and
+//   "diversity.mean_pose_distance_m" DFN's distance to the per-frame mean pose across them, each
+//   averaged over clips (real: n/a, one motion per control);
+// - "fse" spectral entropy of all samples minus that of the real clips (real: 0);
+// - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse"
+//   (evaluate_predictions; real: n/a) over clips with prefix + horizon frames;
+// - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
+//   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
+//   clips split into two halves by index parity).
+// Throws mosyn::Error when the split has no clip, the dataset does not match the run's features,
+// or the classifier run does not match the dataset.
+EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& options,
+                    const EvalProgressCallback& progress = {});
+
+// Loads run_dir (checkpoint.pt) and evaluates.
+EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, const EvalOptions& options,
+                    const EvalProgressCallback& progress = {});
+
+// The table as Markdown: | metric | model | real data |, n/a for NaN.
+std::string format_markdown(const EvalResult& result);
+
+// A value as the table shows it: "n/a" for NaN, integers without decimals, else 4 significant digits.
+std::string format_metric_value(double value);
+
+}  // namespace mosyn::eval

@@ -1,0 +1,112 @@
+// `mosyn train classifier`, `mosyn eval` and `mosyn report` end to end on a small synthetic source
+// with a tiny MoGlow run and a tiny classifier.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli_test_util.h"
+#include "data/prepare.h"
+#include "io/json_file.h"
+#include "render/view.h"
+
+namespace mosyn {
+namespace {
+
+using testing::fresh_dir;
+using testing::run_mosyn;
+using testing::slurp;
+using ::testing::HasSubstr;
+
+class CliReportTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = new std::string(fresh_dir("cli_report").string());
+    data::write_synthetic_source(*root_ + "/source", 2, 90, 3);
+    const auto prep = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ +
+                                "/dataset --window 40 --hop 10 --val 0.25 --threads 1");
+    ASSERT_EQ(prep.exit_code, 0) << prep.err;
+    std::ofstream(*root_ + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 4}})";
+    const auto train = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ + "/run --config " +
+                                 *root_ + "/tiny.json --steps 4 --batch 4 --window 20 --warmup 0 --validate-every 2 "
+                                 "--checkpoint-every 2 --threads 1");
+    ASSERT_EQ(train.exit_code, 0) << train.err;
+    std::ofstream(*root_ + "/cls.json") << R"({"model": {"channels": 8, "features": 8}})";
+    const auto cls = run_mosyn("train classifier --data " + *root_ + "/dataset --out " + *root_ + "/cls --config " +
+                               *root_ + "/cls.json --steps 10 --batch 8 --window 30 --warmup 0 --validate-every 5 "
+                               "--threads 1");
+    ASSERT_EQ(cls.exit_code, 0) << cls.err;
+  }
+  static void TearDownTestSuite() { delete root_; }
+  static std::string* root_;
+};
+std::string* CliReportTest::root_ = nullptr;
+
+TEST_F(CliReportTest, ClassifierRunIsAnOrdinaryRunThatDoesNotSample) {
+  const nlohmann::json config = io::read_json(*root_ + "/cls/config.json");
+  EXPECT_EQ(config["family"], "classifier");
+  EXPECT_THAT(slurp(*root_ + "/cls/log.jsonl"), HasSubstr("content_acc"));
+  const auto r = run_mosyn("sample " + *root_ + "/cls --out " + *root_ + "/cls_samples --n 1 --threads 1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("does not generate motion"));
+}
+
+TEST_F(CliReportTest, EvalThenReport) {
+  const std::string metrics = *root_ + "/run/metrics.json";
+  const auto e = run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 2 --max-clips 2 --seed 3 --prefix 0.5 "
+                           "--horizon 1 --threads 1 --classifier " + *root_ + "/cls --out " + metrics);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  EXPECT_THAT(e.out, HasSubstr("| metric | model | real data |"));
+  EXPECT_THAT(e.out, HasSubstr("prediction ADE (m)"));
+  EXPECT_THAT(e.out, HasSubstr("Inception score"));
+  const nlohmann::json j = io::read_json(metrics);
+  EXPECT_EQ(j["n"], 2);
+  EXPECT_EQ(j["clips"].size(), 2u);
+  EXPECT_TRUE(j["metrics"]["bone_length_rmse_cm"]["model"].is_number());
+  EXPECT_TRUE(j["metrics"]["classifier.fid"]["model"].is_number());
+
+  // The run's metrics.json is picked up without --metrics; samples are drawn by report itself.
+  const std::string page = *root_ + "/report.html";
+  const auto r = run_mosyn("report " + *root_ + "/run --out " + page + " --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = slurp(page);
+  EXPECT_THAT(html, HasSubstr("<svg"));
+  EXPECT_THAT(html, HasSubstr("class=\"val_loss\""));
+  EXPECT_THAT(html, HasSubstr("bone-length RMSE (cm)"));
+  EXPECT_THAT(html, HasSubstr("&quot;num_steps&quot;: 2"));
+  if (render::viewer_available()) {
+    EXPECT_THAT(html, HasSubstr("<iframe"));
+    EXPECT_THAT(html, HasSubstr("mosyn-data"));
+  }
+}
+
+TEST_F(CliReportTest, ReportShowsGivenSamplesAndClassifierRuns) {
+  const auto s = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/samples --n 2 --seconds 2 --threads 1 "
+                           "--path '0,0 0,2'");
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  const auto r = run_mosyn("report " + *root_ + "/run --samples " + *root_ + "/samples --out " + *root_ + "/r2.html");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = slurp(*root_ + "/r2.html");
+  if (render::viewer_available()) {
+    EXPECT_THAT(html, HasSubstr("sample_001.bvh"));
+  }
+  // A classifier run has curves and config but no samples: the page says why.
+  const auto c = run_mosyn("report " + *root_ + "/cls --out " + *root_ + "/r3.html --threads 1");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  const std::string html3 = slurp(*root_ + "/r3.html");
+  EXPECT_THAT(html3, HasSubstr("<svg"));
+  EXPECT_THAT(html3, HasSubstr("does not generate motion"));
+}
+
+TEST_F(CliReportTest, ErrorsAndExitCodes) {
+  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --split test").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 0").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval /nonexistent/run --data " + *root_ + "/dataset --threads 1").exit_code, 1);
+  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run").exit_code, 2);  // --data is required
+  EXPECT_EQ(run_mosyn("report /nonexistent/run --out " + *root_ + "/x.html").exit_code, 1);
+  EXPECT_EQ(run_mosyn("report " + *root_ + "/run --out " + *root_ + "/x.txt").exit_code, 2);
+}
+
+}  // namespace
+}  // namespace mosyn

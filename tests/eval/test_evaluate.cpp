@@ -1,0 +1,208 @@
+// eval::evaluate on a tiny synthetic dataset with a tiny MoGlow run and a tiny classifier trained
+// here for a few steps: every metric present and finite, the real-data column equal to the
+// metrics computed directly on the decoded held-out clips; the report page.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <torch/utils.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "data/prepare.h"
+#include "eval/evaluate.h"
+#include "eval/report.h"
+#include "eval/set_metrics.h"
+#include "nn/run.h"
+#include "nn/training/train.h"
+
+using namespace mosyn;
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+namespace {
+
+class EvaluateTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    torch::set_num_threads(1);
+    root_ = new fs::path(fs::temp_directory_path() / ("mosyn_evaluate_" + std::to_string(::getpid())));
+    fs::remove_all(*root_);
+    data::write_synthetic_source((*root_ / "source").string(), 2, 90, 3);
+    data::PrepareOptions p;
+    p.input_dirs = {(*root_ / "source").string()};
+    p.output_dir = (*root_ / "dataset").string();
+    p.window_frames = 40;
+    p.window_hop = 10;
+    p.val_fraction = 0.25;
+    p.threads = 1;
+    data::prepare_dataset(p);
+    dataset_ = new data::Dataset(data::Dataset::open(p.output_dir));
+
+    nn::TrainOptions o;
+    o.out_dir = (*root_ / "run").string();
+    o.model_config = {{"num_steps", 2}, {"hidden", 16}, {"tau", 4}};
+    o.steps = 3;
+    o.batch = 4;
+    o.window = 20;
+    o.warmup = 0;
+    o.threads = 1;
+    o.validate_every = 3;
+    o.checkpoint_every = 3;
+    nn::train(o, *dataset_);
+
+    nn::TrainOptions c = o;
+    c.family = "classifier";
+    c.out_dir = (*root_ / "classifier").string();
+    c.model_config = {{"channels", 8}, {"features", 8}};
+    c.steps = 10;
+    c.validate_every = 10;
+    c.checkpoint_every = 10;
+    nn::train(c, *dataset_);
+
+    eval::EvalOptions e;
+    e.num_samples = 3;
+    e.max_clips = 4;
+    e.seed = 5;
+    e.prefix_s = 0.5;
+    e.horizon_s = 1.0;
+    e.classifier_dir = (*root_ / "classifier").string();
+    e.threads = 1;
+    result_ = new eval::EvalResult(eval::evaluate((*root_ / "run").string(), *dataset_, e,
+                                                  [](const eval::EvalProgress& pr) { ++progress_calls_; }));
+  }
+  static void TearDownTestSuite() {
+    delete result_;
+    delete dataset_;
+    fs::remove_all(*root_);
+    delete root_;
+  }
+  static fs::path* root_;
+  static data::Dataset* dataset_;
+  static eval::EvalResult* result_;
+  static int progress_calls_;
+};
+fs::path* EvaluateTest::root_ = nullptr;
+data::Dataset* EvaluateTest::dataset_ = nullptr;
+eval::EvalResult* EvaluateTest::result_ = nullptr;
+int EvaluateTest::progress_calls_ = 0;
+
+}  // namespace
+
+TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
+  const eval::EvalResult& r = *result_;
+  EXPECT_EQ(r.family, "moglow");
+  EXPECT_EQ(r.num_samples, 3);
+  EXPECT_EQ(r.clips.size(), 4u);
+  EXPECT_EQ(r.prediction_windows, 4);
+  EXPECT_GT(progress_calls_, 4);
+  for (const char* key :
+       {"motions", "frames", "footsteps.max_steps", "foot_skating_ratio", "bone_length_rmse_cm", "spectral_entropy",
+        "apd_m", "mean_pose_distance_m", "diversity.apd_m", "diversity.mean_pose_distance_m", "fse",
+        "prediction.apd_m", "prediction.ade_m", "prediction.fde_m", "prediction.mmade_m", "prediction.mmfde_m",
+        "prediction.fse", "classifier.content_acc", "classifier.style_acc", "classifier.is", "classifier.fid"}) {
+    SCOPED_TRACE(key);
+    ASSERT_NO_THROW(r.row(key));
+    EXPECT_TRUE(std::isfinite(r.row(key).model));
+  }
+  // Real data: one motion per control, so no per-control diversity and no prediction error.
+  EXPECT_TRUE(std::isnan(r.row("diversity.apd_m").real));
+  EXPECT_TRUE(std::isnan(r.row("prediction.ade_m").real));
+  EXPECT_EQ(r.row("fse").real, 0.0);
+  EXPECT_TRUE(std::isfinite(r.row("classifier.fid").real));  // two halves of the real clips
+  EXPECT_GT(r.row("diversity.apd_m").model, 0.0);
+  EXPECT_GE(r.row("prediction.mmade_m").model, 0.0);
+  EXPECT_GE(r.row("classifier.is").model, 1.0 - 1e-9);
+  EXPECT_EQ(r.row("motions").model, 4.0);  // one replicate set per sample index, as many motions as clips
+  EXPECT_EQ(r.row("motions").real, 4.0);
+}
+
+TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {
+  std::vector<eval::MotionPositions> real;
+  for (int i : result_->clip_indices)
+    real.push_back(eval::motion_positions(data::decode_record(dataset_->info(), dataset_->clips("val").at(i))));
+  const auto rows = eval::set_metrics(real);
+  for (const auto& m : rows) {
+    SCOPED_TRACE(m.key);
+    const double v = result_->row(m.key).real;
+    if (std::isnan(m.value))
+      EXPECT_TRUE(std::isnan(v));
+    else
+      EXPECT_DOUBLE_EQ(v, m.value);
+  }
+}
+
+TEST_F(EvaluateTest, JsonRoundTripAndMarkdown) {
+  const eval::EvalResult back = eval::EvalResult::from_json(result_->to_json());
+  ASSERT_EQ(back.rows.size(), result_->rows.size());
+  for (size_t i = 0; i < back.rows.size(); ++i) {
+    EXPECT_EQ(back.rows[i].key, result_->rows[i].key);
+    if (std::isfinite(result_->rows[i].model)) {
+      EXPECT_DOUBLE_EQ(back.rows[i].model, result_->rows[i].model);
+    }
+  }
+  EXPECT_EQ(back.clips, result_->clips);
+  const std::string md = eval::format_markdown(*result_);
+  EXPECT_THAT(md, HasSubstr("| metric | model | real data |"));
+  EXPECT_THAT(md, HasSubstr("prediction ADE (m)"));
+  EXPECT_THAT(md, HasSubstr("n/a"));
+  EXPECT_THROW(eval::EvalResult::from_json({{"rows", 3}}), Error);
+}
+
+TEST_F(EvaluateTest, SameSeedSameNumbers) {
+  eval::EvalOptions e;
+  e.num_samples = 2;
+  e.max_clips = 2;
+  e.prediction = false;
+  e.threads = 1;
+  const auto a = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  const auto b = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  ASSERT_EQ(a.rows.size(), b.rows.size());
+  for (size_t i = 0; i < a.rows.size(); ++i)
+    if (std::isfinite(a.rows[i].model)) {
+      EXPECT_EQ(a.rows[i].model, b.rows[i].model) << a.rows[i].key;
+    }
+  EXPECT_THROW(a.row("prediction.ade_m"), Error);  // prediction switched off
+}
+
+TEST_F(EvaluateTest, RejectsBadOptions) {
+  eval::EvalOptions e;
+  e.split = "test";
+  EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e), Error);
+  e.split = "val";
+  e.num_samples = 0;
+  EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e), Error);
+  e.num_samples = 1;
+  e.max_clips = 1;
+  e.classifier_dir = (*root_ / "run").string();  // not a classifier
+  EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e), Error);
+}
+
+TEST(Report, TrainingCurveSvgAndPage) {
+  eval::TrainingCurve c;
+  c.step = {1, 2, 3, 4};
+  c.loss = {3.0, 2.0, 1.5, 1.2};
+  c.val_step = {2, 4};
+  c.val_loss = {2.5, 1.4};
+  const std::string svg = eval::training_curve_svg(c);
+  EXPECT_THAT(svg, HasSubstr("<svg"));
+  EXPECT_THAT(svg, HasSubstr("class=\"loss\""));
+  EXPECT_THAT(svg, HasSubstr("class=\"val_loss\""));
+  EXPECT_THAT(eval::training_curve_svg({}), HasSubstr("no logged steps"));
+
+  eval::ReportInputs in;
+  in.title = "run <1>";
+  in.config = {{"family", "moglow"}, {"model", {{"hidden", 16}}}};
+  in.curve = c;
+  eval::EvalResult m;
+  m.rows = {{"fse", "FSE (nats)", 0.25, 0.0}, {"diversity.apd_m", "APD", 1.5, std::nan("")}};
+  in.metrics = m;
+  in.viewer_page = "<html><body>\"viewer\"</body></html>";
+  const std::string html = eval::report_html(in);
+  EXPECT_THAT(html, HasSubstr("run &lt;1&gt;"));
+  EXPECT_THAT(html, HasSubstr("<svg"));
+  EXPECT_THAT(html, HasSubstr("<td>FSE (nats)</td><td>0.25</td><td>0</td>"));
+  EXPECT_THAT(html, HasSubstr("<td>1.5</td><td>n/a</td>"));
+  EXPECT_THAT(html, HasSubstr("srcdoc=\"&lt;html&gt;&lt;body&gt;&quot;viewer&quot;"));
+  EXPECT_THAT(html, HasSubstr("&quot;hidden&quot;: 16"));
+}
