@@ -43,15 +43,6 @@ class CliReportTest : public ::testing::Test {
 };
 std::string* CliReportTest::root_ = nullptr;
 
-TEST_F(CliReportTest, ClassifierRunIsAnOrdinaryRunThatDoesNotSample) {
-  const nlohmann::json config = io::read_json(*root_ + "/cls/config.json");
-  EXPECT_EQ(config["family"], "classifier");
-  EXPECT_THAT(slurp(*root_ + "/cls/log.jsonl"), HasSubstr("content_acc"));
-  const auto r = run_mosyn("sample " + *root_ + "/cls --out " + *root_ + "/cls_samples --n 1 --threads 1");
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("does not generate motion"));
-}
-
 TEST_F(CliReportTest, EvalThenReport) {
   const std::string metrics = *root_ + "/run/metrics.json";
   const auto e = run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 2 --max-clips 2 --seed 3 --prefix 0.5 "
@@ -82,6 +73,14 @@ TEST_F(CliReportTest, EvalThenReport) {
 }
 
 TEST_F(CliReportTest, ReportShowsGivenSamplesAndClassifierRuns) {
+  // The classifier run is an ordinary run (trained by `mosyn train classifier`) that cannot sample.
+  const nlohmann::json config = io::read_json(*root_ + "/cls/config.json");
+  EXPECT_EQ(config["family"], "classifier");
+  EXPECT_THAT(slurp(*root_ + "/cls/log.jsonl"), HasSubstr("content_acc"));
+  const auto no = run_mosyn("sample " + *root_ + "/cls --out " + *root_ + "/cls_samples --n 1 --threads 1");
+  EXPECT_EQ(no.exit_code, 1);
+  EXPECT_THAT(no.err, HasSubstr("does not generate motion"));
+
   const auto s = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/samples --n 2 --seconds 2 --threads 1 "
                            "--path '0,0 0,2'");
   ASSERT_EQ(s.exit_code, 0) << s.err;
@@ -99,13 +98,17 @@ TEST_F(CliReportTest, ReportShowsGivenSamplesAndClassifierRuns) {
   EXPECT_THAT(html3, HasSubstr("does not generate motion"));
 }
 
-TEST_F(CliReportTest, ErrorsAndExitCodes) {
-  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --split test").exit_code, 2);
-  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 0").exit_code, 2);
-  EXPECT_EQ(run_mosyn("eval /nonexistent/run --data " + *root_ + "/dataset --threads 1").exit_code, 1);
-  EXPECT_EQ(run_mosyn("eval " + *root_ + "/run").exit_code, 2);  // --data is required
-  EXPECT_EQ(run_mosyn("report /nonexistent/run --out " + *root_ + "/x.html").exit_code, 1);
-  EXPECT_EQ(run_mosyn("report " + *root_ + "/run --out " + *root_ + "/x.txt").exit_code, 2);
+// Flag errors exit 2 before any data is read; missing runs and data exit 1.
+TEST(CliReport, ErrorsAndExitCodes) {
+  const std::string dir = fresh_dir("cli_report_errors").string();
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --split test").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --n 0").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run").exit_code, 2);  // --data is required
+  const auto missing = run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --threads 1");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr(dir + "/dataset"));
+  EXPECT_EQ(run_mosyn("report " + dir + "/run --out " + dir + "/x.html").exit_code, 1);
+  EXPECT_EQ(run_mosyn("report " + dir + "/run --out " + dir + "/x.txt").exit_code, 2);
 }
 
 }  // namespace
