@@ -46,6 +46,13 @@ int label_for_run(int id, const std::vector<std::string>& dataset_labels, const 
   return it == run_labels.end() ? -1 : static_cast<int>(it - run_labels.begin());
 }
 
+// Joint positions relative to joint 0 (the pelvis) per frame: sequence [T, J * 3].
+Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence) {
+  Eigen::MatrixXd out = sequence;
+  for (Eigen::Index j = 0; j + 2 < out.cols(); j += 3) out.middleCols(j, 3) -= sequence.leftCols(3);
+  return out;
+}
+
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 double number_from(const nlohmann::json& j) { return j.is_number() ? j.get<double>() : kNaN; }
 
@@ -234,13 +241,14 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
                                               o.temperature, extras);
       PredictionWindow w;
       const Eigen::MatrixXd truth =
-          motion_positions(nn::decode_motion(run, rows_of(rec.pose, 0, p + h, d), control)).sequence();
+          root_relative(motion_positions(nn::decode_motion(run, rows_of(rec.pose, 0, p + h, d), control)).sequence());
       w.ground_truth = truth.middleRows(p, h);
       w.last_context_pose = truth.row(p - 1).transpose();
       for (const auto& f : futures) {
         std::vector<float> whole = extras.prefix_pose;
         whole.insert(whole.end(), f.begin(), f.end());
-        w.samples.push_back(motion_positions(nn::decode_motion(run, whole, control)).sequence().middleRows(p, h));
+        w.samples.push_back(
+            root_relative(motion_positions(nn::decode_motion(run, whole, control)).sequence()).middleRows(p, h));
       }
       windows.push_back(std::move(w));
     }

@@ -26,7 +26,7 @@ struct EvalOptions {
   bool prediction = true;        // run it when the family supports it
   double prefix_s = 1.0;         // observed real motion before the prediction
   double horizon_s = 2.0;        // predicted motion, given the true control
-  double multimodal_threshold_m = 0.5;  // MMADE/MMFDE ground-truth grouping (whole-pose L2, metres)
+  double multimodal_threshold_m = 0.5;  // MMADE/MMFDE ground-truth grouping (root-relative whole-pose L2, m)
   std::string classifier_dir;    // a "classifier" run: adds IS, FID and accuracies ("" = none)
   SetMetricsOptions metrics;     // footstep, skating and foot-joint options
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
@@ -76,7 +76,8 @@ struct EvalResult {
 //   averaged over clips (real: n/a, one motion per control);
 // - "fse" spectral entropy of all samples minus that of the real clips (real: 0);
 // - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse"
-//   (evaluate_predictions; real: n/a) over clips with prefix + horizon frames;
+//   (evaluate_predictions on joint positions relative to the pelvis, joint 0; real: n/a) over
+//   clips with prefix + horizon frames;
 // - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
 //   clips split into two halves by index parity).
