@@ -469,6 +469,7 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--seed", a->options.seed, "random seed (default 1)");
     cmd->add_option("--max-clips", a->options.max_clips, "evaluate at most this many clips, evenly spread (default all)");
     cmd->add_option("--out", a->out, "also write every value to this JSON file (e.g. RUN/metrics.json)");
+    cmd->add_option("--checkpoint", a->options.checkpoint, "checkpoint file of the run (default checkpoint.pt; e.g. best.pt)");
     cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
     cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
     cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");

@@ -127,6 +127,7 @@ EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, co
                     const EvalProgressCallback& progress) {
   nn::LoadOptions lo;
   lo.threads = options.threads;
+  lo.checkpoint = options.checkpoint;
   return evaluate(nn::load_run(run_dir, lo), dataset, options, progress);
 }
 

@@ -30,6 +30,7 @@ struct EvalOptions {
   std::string classifier_dir;    // a "classifier" run: adds IS, FID and accuracies ("" = none)
   SetMetricsOptions metrics;     // footstep, skating and foot-joint options
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
+  std::string checkpoint = "checkpoint.pt";  // file of the run to evaluate (e.g. "best.pt"), run_dir overload
 };
 
 struct EvalProgress {
@@ -86,7 +87,7 @@ struct EvalResult {
 EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& options,
                     const EvalProgressCallback& progress = {});
 
-// Loads run_dir (checkpoint.pt) and evaluates.
+// Loads run_dir (options.checkpoint) and evaluates.
 EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, const EvalOptions& options,
                     const EvalProgressCallback& progress = {});
 
