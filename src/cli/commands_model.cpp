@@ -1,6 +1,7 @@
 // `mosyn train FAMILY` and `mosyn sample RUN_DIR`.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -107,8 +108,10 @@ void run_train(TrainArgs& a) {
     std::fprintf(stderr, "interrupted: checkpoint at step %d saved in %s (continue with --resume)\n", r.step,
                  r.run_dir.c_str());
   else
-    std::fprintf(stderr, "trained %d steps: last loss %.4f, best validation loss %.4f; run in %s\n", r.step,
-                 r.last_loss, r.best_val_loss, r.run_dir.c_str());
+    std::fprintf(stderr, "trained %d steps: last loss %.4f%s; run in %s\n", r.step, r.last_loss,
+                 std::isfinite(r.best_val_loss) ? (", best validation loss " + std::to_string(r.best_val_loss)).c_str()
+                                                : "",
+                 r.run_dir.c_str());
 }
 
 struct SampleArgs {

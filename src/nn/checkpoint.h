@@ -4,6 +4,7 @@
 #include <torch/optim/optimizer.h>
 #include <torch/types.h>
 
+#include <limits>
 #include <string>
 
 #include "nn/model.h"
@@ -15,7 +16,7 @@ struct CheckpointState {
   int step = 0;
   std::string data_rng;     // std::mt19937_64 state as written by operator<<
   torch::Tensor torch_rng;  // default CPU generator state (uint8)
-  double best_val_loss = -1.0;
+  double best_val_loss = std::numeric_limits<double>::quiet_NaN();  // NaN: never validated
 };
 
 // Writes model (parameters + buffers), optimizer (may be null) and state to path atomically.

@@ -268,3 +268,42 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   EXPECT_NEAR(walker.root(0).position.norm(), 0.0, 1e-12);
   fs::remove_all(dir);
 }
+
+namespace {
+
+// A model whose loss is a fixed negative number (as a good model's NLL often is): validation
+// bookkeeping must not mistake it for "not validated".
+class NegativeLossModel : public MotionModel {
+ public:
+  NegativeLossModel() : MotionModel("NegativeLossModel") { w_ = register_parameter("w", torch::zeros({1})); }
+  std::string family() const override { return "test_negative_loss"; }
+  nlohmann::json config() const override { return nlohmann::json::object(); }
+  LossTerms loss(const Batch&) override { return LossTerms{{{"loss", w_.sum() * 0 - 2.5}}}; }
+  torch::Tensor sample(const SampleRequest& r) override { return torch::zeros({r.control.size(0), r.control.size(1), kDim}); }
+
+ private:
+  torch::Tensor w_;
+};
+
+}  // namespace
+
+TEST(Training, NegativeValidationLossIsLoggedAndKeepsBest) {
+  register_model_family("test_negative_loss", [](const nlohmann::json&, const ModelContext&) {
+    return std::make_shared<NegativeLossModel>();
+  });
+  const auto dir = temp_dir("negative_val");
+  TrainOptions o = tiny_options(dir);
+  o.family = "test_negative_loss";
+  o.model_config = nlohmann::json::object();
+  o.steps = 4;
+  o.validate_every = 2;
+  const TrainResult r = train(o, synthetic_dataset());
+  EXPECT_DOUBLE_EQ(r.best_val_loss, -2.5);
+  EXPECT_TRUE(fs::exists(dir / "best.pt"));
+  std::ifstream log(dir / "log.jsonl");
+  int val_lines = 0;
+  for (std::string line; std::getline(log, line);)
+    if (line.find("\"val_loss\":-2.5") != std::string::npos) ++val_lines;
+  EXPECT_EQ(val_lines, 2);
+  fs::remove_all(dir);
+}

@@ -18,6 +18,7 @@
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <limits>
 #include <string>
 
 #include "data/dataset.h"
@@ -56,7 +57,7 @@ struct TrainProgress {
   int total_steps = 0;
   double loss = 0.0;            // training loss of this step
   std::map<std::string, double> metrics;  // the model's other loss terms (e.g. nll_frame)
-  double val_loss = -1.0;       // validation loss when validated at this step, else < 0 ... see has_val
+  double val_loss = std::numeric_limits<double>::quiet_NaN();  // validation loss at this step (see has_val)
   bool has_val = false;
   double lr = 0.0;
   double steps_per_s = 0.0;     // recent training throughput
@@ -74,7 +75,7 @@ struct TrainResult {
   std::string run_dir;
   int step = 0;               // steps done when train returned
   double last_loss = 0.0;     // training loss of the last step
-  double best_val_loss = -1.0;  // < 0 when never validated
+  double best_val_loss = std::numeric_limits<double>::quiet_NaN();  // NaN when never validated
   bool stopped_early = false;   // should_stop returned true
 };
 

@@ -247,7 +247,8 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   torch::optim::Adam optimizer(model->parameters(), torch::optim::AdamOptions(opts.lr));
   std::mt19937_64 rng(opts.seed * 0x9E3779B97F4A7C15ull + 1);
   int step = 0;
-  double best_val = -1.0;
+  // NaN = not validated yet (a validation NLL may be any real number, negative included).
+  double best_val = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> log_lines;
 
   if (opts.resume) {
@@ -285,7 +286,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   };
 
   auto validate = [&]() -> double {
-    if (val_windows.empty()) return -1.0;
+    if (val_windows.empty()) return std::numeric_limits<double>::quiet_NaN();
     torch::NoGradGuard no_grad;
     model->eval();
     double total = 0;
@@ -346,10 +347,10 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
 
     const bool last = step == opts.steps;
     const bool do_val = (opts.validate_every > 0 && step % opts.validate_every == 0) || (last && opts.validate_every > 0);
-    double val = -1.0;
+    double val = std::numeric_limits<double>::quiet_NaN();
     if (do_val) {
       val = validate();
-      if (val >= 0 && (best_val < 0 || val < best_val)) {
+      if (std::isfinite(val) && (!std::isfinite(best_val) || val < best_val)) {
         best_val = val;
         save(best_path);
       }
@@ -369,7 +370,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
       p.loss = loss;
       for (const auto& kv : terms.terms)
         if (kv.first != "loss") p.metrics[kv.first] = kv.second.item<double>();
-      p.has_val = do_val && val >= 0;
+      p.has_val = do_val && std::isfinite(val);
       p.val_loss = val;
       p.lr = lr;
       p.steps_per_s = rate;
