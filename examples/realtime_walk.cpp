@@ -14,6 +14,7 @@ int main(int argc, char** argv) try {
   options.batch = 4;  // characters stepping together
   options.seed = 42;  // same seed and controls give the same motion
   options.threads = 1;
+  options.warmup_frames = 30;  // settle into a natural standing pose before the first frame
   mosyn::nn::Generator generator(model_dir, options);
   const double fps = generator.run().dataset.fps;
 

@@ -472,6 +472,8 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--checkpoint", a->options.checkpoint, "checkpoint file of the run (default checkpoint.pt; e.g. best.pt)");
     cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
     cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
+    cmd->add_option("--warmup", a->options.warmup_s,
+                    "seconds of standing generated before each synthesised clip and dropped (default 1)");
     cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");
     cmd->add_option("--horizon", a->options.horizon_s, "prediction: seconds predicted (default 2)");
     cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,

@@ -124,6 +124,7 @@ struct SampleArgs {
   std::string path, control_file, data_dir, split = "val", checkpoint = "checkpoint.pt", prefix = "sample";
   int clip = -1;
   double speed_mps = 1.3;
+  double warmup_s = 1.0;
   int threads = 0;
   std::string content, style;
 };
@@ -144,6 +145,7 @@ void run_sample(const SampleArgs& a) {
   if (a.seconds < 0 || a.seconds > 3600) throw UsageError("--seconds must be in [0, 3600]");
   if (!(a.temperature >= 0)) throw UsageError("--temperature must not be negative");
   if (!(a.speed_mps > 0)) throw UsageError("--speed must be positive");
+  if (a.warmup_s < 0 || a.warmup_s > 60) throw UsageError("--warmup must be in [0, 60] seconds");
 
   nn::LoadOptions load;
   load.checkpoint = a.checkpoint;
@@ -193,6 +195,7 @@ void run_sample(const SampleArgs& a) {
   nn::SampleExtras extras;
   extras.content = label_index(run.dataset.content_labels, a.content, "content label");
   extras.style = label_index(run.dataset.style_labels, a.style, "style label");
+  extras.warmup_frames = static_cast<int>(std::lround(a.warmup_s * fps));
   const auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
 
   std::filesystem::create_directories(a.out_dir);
@@ -299,6 +302,9 @@ void add_model_commands(CLI::App& app, Action* action) {
   sample->add_option("--data", s->data_dir, "take the control of a dataset clip (with --clip, --split)");
   sample->add_option("--split", s->split, "dataset split for --data")->capture_default_str();
   sample->add_option("--clip", s->clip, "clip index in the split for --data");
+  sample->add_option("--warmup", s->warmup_s,
+                     "seconds of standing generated first and dropped, so motion starts from a natural pose")
+      ->capture_default_str();
   sample->add_option("--content", s->content, "content label, for label-conditioned families");
   sample->add_option("--style", s->style, "style label, for label-conditioned families");
   sample->add_option("--checkpoint", s->checkpoint, "checkpoint file in the run directory (e.g. best.pt)")

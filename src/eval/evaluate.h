@@ -21,6 +21,7 @@ struct EvalOptions {
   std::uint64_t seed = 1;        // clip i is sampled with seed + i (prediction: seed + 1000003 + i)
   int max_clips = 0;             // at most this many clips (evenly spread over the split); 0 = all
   double temperature = 1.0;      // latent standard-deviation multiplier
+  double warmup_s = 1.0;         // synthesis: standing generated first and dropped (nn SampleExtras)
   bool include_augmented = false;  // also evaluate mirrored / reversed copies in the split
   // Stochastic prediction (families that can continue a given motion: supports_streaming()):
   bool prediction = true;        // run it when the family supports it

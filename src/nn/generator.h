@@ -23,6 +23,8 @@ struct GeneratorOptions {
   double temperature = 1.0; // latent standard deviation multiplier
   std::vector<float> prefix_pose;     // optional raw [P, D] (shared by all characters)
   std::vector<float> prefix_control;  // optional raw [P, C]
+  int warmup_frames = 0;     // frames of standing generated and dropped at (re)start, so the first
+                            // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };
 
 // Floor position (skeleton units, up coordinate 0) and heading (radians) of a character's root.

@@ -64,12 +64,17 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
   const int64_t d = run.context.pose_dim, c = run.context.control_dim;
   if (control.empty() || control.size() % c != 0)
     throw Error("sample_motions: control is not [T, " + std::to_string(c) + "]");
+  if (extras.warmup_frames < 0) throw Error("sample_motions: warmup_frames must be >= 0");
   const int64_t t = static_cast<int64_t>(control.size()) / c;
+  const int64_t w = extras.warmup_frames;
+  std::vector<float> full_control(static_cast<size_t>(w * c), 0.0f);
+  full_control.insert(full_control.end(), control.begin(), control.end());
   Standardiser st(run.stats);
   auto& model = *run.model;
   const auto device = model_device(model);
   SampleRequest req;
-  req.control = st.control(from_vector(control, t, c)).unsqueeze(0).expand({n, t, c}).contiguous().to(device);
+  req.control =
+      st.control(from_vector(full_control, w + t, c)).unsqueeze(0).expand({n, w + t, c}).contiguous().to(device);
   fill_request(req, run, st, n, extras.prefix_pose, extras.prefix_control, extras.content, extras.style);
   if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
   if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
@@ -78,7 +83,7 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
   req.temperature = temperature;
   req.seed = seed;
   model.eval();
-  auto out = st.unpose(model.sample(req).to(torch::kCPU, torch::kFloat32)).contiguous();
+  auto out = st.unpose(model.sample(req).narrow(1, w, t).to(torch::kCPU, torch::kFloat32)).contiguous();
   std::vector<std::vector<float>> result(n);
   for (int i = 0; i < n; ++i) {
     const float* p = out[i].data_ptr<float>();
@@ -104,6 +109,7 @@ struct Generator::Impl {
     if (!run.model->supports_streaming())
       throw Error("Generator: model family '" + run.family + "' cannot generate frame by frame");
     if (options.batch < 1) throw Error("Generator: batch must be >= 1");
+    if (options.warmup_frames < 0) throw Error("Generator: warmup_frames must be >= 0");
     device = model_device(*run.model);
     run.model->eval();
     start(options.seed);
@@ -119,6 +125,11 @@ struct Generator::Impl {
     req.temperature = options.temperature;
     req.seed = seed;
     stream = run.model->begin_stream(req);
+    // Standing warm-up (see SampleExtras::warmup_frames): zero raw control, outputs dropped.
+    if (options.warmup_frames > 0) {
+      const auto still = st.control(torch::zeros({options.batch, run.context.control_dim})).to(device);
+      for (int k = 0; k < options.warmup_frames; ++k) run.model->step_stream(*stream, still);
+    }
     roots.assign(options.batch, RootPose{});
     frames = 0;
   }

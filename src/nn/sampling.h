@@ -16,6 +16,11 @@ struct SampleExtras {
   std::vector<float> prefix_control;  // optional raw [P, C] (empty = mean control)
   int content = -1;                   // label ids, -1 = none
   int style = -1;
+  // Frames of standing (all-zero raw control) generated before the requested control and then
+  // dropped. Without a prefix a model starts from its initial state (MoGlow: the mean pose as
+  // history), which shows as an unnatural first frame; warming up lets it settle into a
+  // natural standing pose first. 0 = none.
+  int warmup_frames = 0;
 };
 
 // n random motions for one control sequence, raw control [T, C] row-major (dx, dz metres,
