@@ -233,7 +233,8 @@ void run_sample(const SampleArgs& a) {
 }
 
 // A run directory without optimiser state: what ships under models/.
-void run_export(const std::string& run_dir, const std::string& out_dir, const std::string& checkpoint, bool overwrite) {
+void run_export(const std::string& run_dir, const std::string& out_dir, const std::string& checkpoint, bool overwrite,
+                bool half) {
   namespace fs = std::filesystem;
   if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !overwrite)
     throw Error(out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
@@ -247,9 +248,10 @@ void run_export(const std::string& run_dir, const std::string& out_dir, const st
   }
   nn::CheckpointState state;
   state.step = run.step;
+  if (half) nn::narrow_to_half(*run.model);
   nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.model, nullptr, state);
-  std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only)\n", run.step, run_dir.c_str(),
-               checkpoint.c_str(), out_dir.c_str());
+  std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only%s)\n", run.step,
+               run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "");
 }
 
 }  // namespace
@@ -316,6 +318,7 @@ void add_model_commands(CLI::App& app, Action* action) {
   struct ExportArgs {
     std::string run_dir, out_dir, checkpoint = "best.pt";
     bool overwrite = false;
+    bool half = false;
   };
   auto e = std::make_shared<ExportArgs>();
   CLI::App* exp = app.add_subcommand(
@@ -324,7 +327,9 @@ void add_model_commands(CLI::App& app, Action* action) {
   exp->add_option("--out,-o", e->out_dir, "model directory to write (usable as RUN_DIR of sample)")->required();
   exp->add_option("--checkpoint", e->checkpoint, "checkpoint to export")->capture_default_str();
   exp->add_flag("--overwrite", e->overwrite, "replace the model files in an existing --out");
-  exp->callback([action, e] { *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite); }; });
+  exp->add_flag("--half", e->half, "store weights as float16 (half the size; computed in float32 when loaded)");
+  exp->callback(
+      [action, e] { *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite, e->half); }; });
 }
 
 }  // namespace mosyn::cli

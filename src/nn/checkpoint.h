@@ -23,6 +23,12 @@ struct CheckpointState {
 void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
                      const CheckpointState& state);
 
+// Converts the model's float32 parameters and buffers to float16 in place, to save a checkpoint
+// at half the size (mosyn export --half). load_checkpoint widens them back to float32, so the
+// loaded model computes in float32 with weights rounded to float16 (about 3 significant
+// digits). The model is for saving only afterwards.
+void narrow_to_half(MotionModel& model);
+
 // Loads into an already-built model (and optimizer, may be null) on device. Throws mosyn::Error
 // naming path when the file is missing, truncated, corrupt or does not fit the model.
 CheckpointState load_checkpoint(const std::string& path, MotionModel& model, torch::optim::Optimizer* optimizer,

@@ -14,7 +14,35 @@ namespace mosyn::nn {
 
 namespace {
 constexpr const char* kCheckpointFormat = "mosyn-checkpoint-1";
+
+// Module::load, except that stored tensors are copied into the existing ones: the model keeps its
+// dtype (float16 weights from narrow_to_half compute in float32) and its tensor identities
+// (LSTM flat-weight views stay valid). Shapes must match.
+void load_module(torch::nn::Module& module, torch::serialize::InputArchive& archive) {
+  torch::NoGradGuard no_grad;
+  auto copy_into = [](torch::Tensor& target, const torch::Tensor& stored, const std::string& name) {
+    if (stored.sizes() != target.sizes())
+      throw Error("tensor '" + name + "' has shape " + c10::str(stored.sizes()) + ", expected " +
+                  c10::str(target.sizes()));
+    target.copy_(stored);
+  };
+  for (auto& p : module.named_parameters(/*recurse=*/false)) {
+    torch::Tensor stored;
+    archive.read(p.key(), stored);
+    copy_into(p.value(), stored, p.key());
+  }
+  for (auto& b : module.named_buffers(/*recurse=*/false)) {
+    torch::Tensor stored;
+    archive.read(b.key(), stored, /*is_buffer=*/true);
+    copy_into(b.value(), stored, b.key());
+  }
+  for (auto& child : module.named_children()) {
+    torch::serialize::InputArchive child_archive;
+    archive.read(child.key(), child_archive);
+    load_module(*child.value(), child_archive);
+  }
 }
+}  // namespace
 
 void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
                      const CheckpointState& state) {
@@ -64,7 +92,7 @@ CheckpointState load_checkpoint(const std::string& path, MotionModel& model, tor
     if (archive.try_read("torch_rng", rng, /*is_buffer=*/true)) state.torch_rng = rng.to(torch::kCPU);
     torch::serialize::InputArchive model_archive;
     archive.read("model", model_archive);
-    model.load(model_archive);
+    load_module(model, model_archive);
     if (optimizer) {
       torch::serialize::InputArchive opt_archive;
       if (!archive.try_read("optimizer", opt_archive)) throw Error("no optimizer state");
@@ -78,6 +106,14 @@ CheckpointState load_checkpoint(const std::string& path, MotionModel& model, tor
     throw Error(path + ": corrupt or truncated checkpoint (" + msg + ")");
   }
   return state;
+}
+
+void narrow_to_half(MotionModel& model) {
+  torch::NoGradGuard no_grad;
+  for (auto& t : model.parameters())
+    if (t.scalar_type() == torch::kFloat32) t.set_data(t.to(torch::kHalf));
+  for (auto& t : model.buffers())
+    if (t.scalar_type() == torch::kFloat32) t.set_data(t.to(torch::kHalf));
 }
 
 LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
