@@ -1,5 +1,7 @@
 #include "eval/report.h"
 
+#include "io/html.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -42,22 +44,6 @@ const char* kStyle =
     "iframe{width:100%;height:540px;border:1px solid #ccc}.note{color:#666}";
 
 }  // namespace
-
-std::string escape_html_text(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 TrainingCurve read_training_log(const std::string& path) {
   std::ifstream in(path);
@@ -150,10 +136,10 @@ std::string training_curve_svg(const TrainingCurve& curve, int width, int height
 
 std::string report_html(const ReportInputs& in) {
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" +
-                  escape_html_text(in.title) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
-  h += "<h1>" + escape_html_text(in.title) + "</h1>\n";
+                  io::escape_html(in.title) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
+  h += "<h1>" + io::escape_html(in.title) + "</h1>\n";
   if (in.config.is_object() && in.config.contains("family") && in.config["family"].is_string())
-    h += "<p>Model family <b>" + escape_html_text(in.config["family"].get<std::string>()) + "</b></p>\n";
+    h += "<p>Model family <b>" + io::escape_html(in.config["family"].get<std::string>()) + "</b></p>\n";
 
   h += "<h2>Training curves</h2>\n" + training_curve_svg(in.curve) + "\n";
   if (!in.curve.loss.empty())
@@ -165,13 +151,13 @@ std::string report_html(const ReportInputs& in) {
   h += "<h2>Metrics</h2>\n";
   if (in.metrics) {
     const EvalResult& m = *in.metrics;
-    h += "<p class=\"note\">" + std::to_string(m.clips.size()) + " held-out clips of split '" + escape_html_text(m.split) +
+    h += "<p class=\"note\">" + std::to_string(m.clips.size()) + " held-out clips of split '" + io::escape_html(m.split) +
          "', " + std::to_string(m.num_samples) + " samples per control, seed " + std::to_string(m.seed) +
          (m.prediction_windows > 0 ? ", " + std::to_string(m.prediction_windows) + " prediction windows" : std::string()) +
          ".</p>\n";
     h += "<table class=\"metrics\">\n<tr><th>metric</th><th>model</th><th>real data</th></tr>\n";
     for (const auto& r : m.rows)
-      h += "<tr><td>" + escape_html_text(r.label) + "</td><td>" + format_metric_value(r.model) + "</td><td>" +
+      h += "<tr><td>" + io::escape_html(r.label) + "</td><td>" + format_metric_value(r.model) + "</td><td>" +
            format_metric_value(r.real) + "</td></tr>\n";
     h += "</table>\n";
   } else {
@@ -180,10 +166,10 @@ std::string report_html(const ReportInputs& in) {
 
   h += "<h2>Samples</h2>\n";
   if (!in.viewer_page.empty())
-    h += "<iframe class=\"viewer\" title=\"samples\" srcdoc=\"" + escape_html_text(in.viewer_page) + "\"></iframe>\n";
-  if (!in.viewer_note.empty()) h += "<p class=\"note\">" + escape_html_text(in.viewer_note) + "</p>\n";
+    h += "<iframe class=\"viewer\" title=\"samples\" srcdoc=\"" + io::escape_html(in.viewer_page) + "\"></iframe>\n";
+  if (!in.viewer_note.empty()) h += "<p class=\"note\">" + io::escape_html(in.viewer_note) + "</p>\n";
 
-  h += "<h2>Config</h2>\n<pre>" + escape_html_text(in.config.dump(2)) + "</pre>\n";
+  h += "<h2>Config</h2>\n<pre>" + io::escape_html(in.config.dump(2)) + "</pre>\n";
   h += "</body>\n</html>\n";
   return h;
 }

@@ -40,7 +40,4 @@ struct ReportInputs {
 // HTML-escaped.
 std::string report_html(const ReportInputs& inputs);
 
-// HTML escaping of & < > " '.
-std::string escape_html_text(const std::string& text);
-
 }  // namespace mosyn::eval

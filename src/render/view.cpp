@@ -1,5 +1,7 @@
 #include "render/view.h"
 
+#include "io/html.h"
+
 #include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -20,20 +22,6 @@ std::string escape_script_end(const std::string& text) {
       ++i;
     } else {
       out += text[i];
-    }
-  }
-  return out;
-}
-
-std::string escape_html(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
     }
   }
   return out;
@@ -91,7 +79,7 @@ std::string viewer_page(const std::vector<RenderMotion>& motions, const std::str
   for (const auto& m : motions)
     if (m.num_frames < 1) throw Error("motion '" + m.name + "' has no frames");
   std::string page;
-  page += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + escape_html(title) +
+  page += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + io::escape_html(title) +
           "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
   page += "<canvas id=\"view\"></canvas>\n<div id=\"legend\"></div>\n";
   page +=
