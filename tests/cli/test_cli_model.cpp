@@ -24,15 +24,8 @@ class CliModelTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ = new std::string(fresh_dir("cli_model").string());
-    data::write_synthetic_source(*root_ + "/source", 2, 90, 3);
-    const auto prep = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ +
-                                "/dataset --window 40 --hop 10 --mirror --val 0.25 --threads 2");
-    ASSERT_EQ(prep.exit_code, 0) << prep.err;
-    std::ofstream(*root_ + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 4}})";
-    const auto train = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ +
-                                 "/run --config " + *root_ + "/tiny.json --steps 6 --batch 4 --window 20 "
-                                 "--warmup 0 --validate-every 3 --checkpoint-every 3 --threads 1");
-    ASSERT_EQ(train.exit_code, 0) << train.err;
+    const std::string error = testing::make_tiny_moglow_run(*root_, "--mirror", 6);
+    ASSERT_EQ(error, "");
   }
   static void TearDownTestSuite() { delete root_; }
   static std::string* root_;

@@ -23,15 +23,8 @@ class CliReportTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ = new std::string(fresh_dir("cli_report").string());
-    data::write_synthetic_source(*root_ + "/source", 2, 90, 3);
-    const auto prep = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ +
-                                "/dataset --window 40 --hop 10 --val 0.25 --threads 1");
-    ASSERT_EQ(prep.exit_code, 0) << prep.err;
-    std::ofstream(*root_ + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 4}})";
-    const auto train = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ + "/run --config " +
-                                 *root_ + "/tiny.json --steps 4 --batch 4 --window 20 --warmup 0 --validate-every 2 "
-                                 "--checkpoint-every 2 --threads 1");
-    ASSERT_EQ(train.exit_code, 0) << train.err;
+    const std::string error = testing::make_tiny_moglow_run(*root_);
+    ASSERT_EQ(error, "");
     std::ofstream(*root_ + "/cls.json") << R"({"model": {"channels": 8, "features": 8}})";
     const auto cls = run_mosyn("train classifier --data " + *root_ + "/dataset --out " + *root_ + "/cls --config " +
                                *root_ + "/cls.json --steps 10 --batch 8 --window 30 --warmup 0 --validate-every 5 "
