@@ -35,13 +35,13 @@ fi
 model=models/moglow-locomotion
 if [ -f "$model/checkpoint.pt" ]; then
   echo "== mosyn sample: 4 different walks along one curved path from the shipped MoGlow model"
-  "$mosyn" sample "$model" --out "$out/curve" --n 4 --seed 1 --path "0,0 0,3 2,5 5,5 7,3" --positions
+  "$mosyn" sample "$model" --out "$out/curve" --prefix curve --n 4 --seed 1 --path "0,0 0,3 2,5 5,5 7,3" --positions
   echo "== mosyn sample: stand still for 3 s, then walk 5 m"
-  "$mosyn" sample "$model" --out "$out/stand-walk" --n 2 --seed 2 --path "0,0,3 0,5"
+  "$mosyn" sample "$model" --out "$out/stand-walk" --prefix stand-walk --n 2 --seed 2 --path "0,0,3 0,5"
   echo "== pictures: a viewer page and a filmstrip"
   "$mosyn" view "$out"/curve/*.bvh "$out"/stand-walk/*.bvh --out "$out/viewer.html"
   "$mosyn" render "$out"/curve/*.bvh --out "$out/curve.png" --camera top --width 900 --height 600 --overlay
-  "$mosyn" render "$out"/stand-walk/sample_000.bvh --out "$out/stand-walk.png" --camera side --filmstrip 6 \
+  "$mosyn" render "$out"/stand-walk/stand-walk_000.bvh --out "$out/stand-walk.png" --camera side --filmstrip 6 \
     --width 240 --height 320 --follow
 fi
 
