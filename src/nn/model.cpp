@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "nn/classifier/classifier.h"
 #include "nn/moglow/moglow.h"
+#include "nn/rvae/rvae.h"
 
 namespace mosyn::nn {
 
@@ -37,6 +38,9 @@ std::map<std::string, ModelFactory>& registry() {
        }},
       {"moglow", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
          return make_moglow(c, ctx);
+       }},
+      {"rvae", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
+         return make_rvae(c, ctx);
        }},
   };
   return r;

@@ -1,0 +1,300 @@
+#include "nn/rvae/rvae.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <torch/utils.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace mosyn::nn {
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+
+int get_int(const nlohmann::json& j, const char* key) {
+  if (!j.at(key).is_number_integer()) throw Error(std::string("rvae config: '") + key + "' must be an integer");
+  return j.at(key).get<int>();
+}
+double get_double(const nlohmann::json& j, const char* key) {
+  if (!j.at(key).is_number()) throw Error(std::string("rvae config: '") + key + "' must be a number");
+  return j.at(key).get<double>();
+}
+std::vector<int> get_ints(const nlohmann::json& j, const char* key) {
+  const auto& v = j.at(key);
+  if (!v.is_array()) throw Error(std::string("rvae config: '") + key + "' must be an array of integers");
+  std::vector<int> out;
+  for (const auto& e : v) {
+    if (!e.is_number_integer()) throw Error(std::string("rvae config: '") + key + "' must be an array of integers");
+    out.push_back(e.get<int>());
+    if (out.back() < 1) throw Error(std::string("rvae config: '") + key + "' entries must be >= 1");
+  }
+  return out;
+}
+
+torch::Tensor activation(const torch::Tensor& x) { return torch::elu(x); }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
+  RvaeOptions o;
+  if (!config.is_object()) throw Error("rvae config must be a JSON object");
+  for (auto it = config.begin(); it != config.end(); ++it) {
+    const std::string& k = it.key();
+    if (k == "family") continue;
+    if (k == "encoder_channels") o.encoder_channels = get_ints(config, "encoder_channels");
+    else if (k == "control_channels") o.control_channels = get_ints(config, "control_channels");
+    else if (k == "decoder_channels") o.decoder_channels = get_ints(config, "decoder_channels");
+    else if (k == "latent") o.latent = get_int(config, "latent");
+    else if (k == "kernel") o.kernel = get_int(config, "kernel");
+    else if (k == "input_dropout") o.input_dropout = get_double(config, "input_dropout");
+    else if (k == "kl_weight") o.kl_weight = get_double(config, "kl_weight");
+    else if (k == "kl_anneal") o.kl_anneal = get_double(config, "kl_anneal");
+    else if (k == "l1") o.l1 = get_double(config, "l1");
+    else throw Error("rvae config: unknown key '" + k + "'");
+  }
+  if (o.encoder_channels.empty() || o.encoder_channels.size() > 8)
+    throw Error("rvae config: encoder_channels must have 1 to 8 entries (one per conv/pool block)");
+  if (o.control_channels.size() != o.encoder_channels.size())
+    throw Error("rvae config: control_channels must have as many entries as encoder_channels");
+  if (o.decoder_channels.size() + 1 != o.encoder_channels.size())
+    throw Error("rvae config: decoder_channels must have one entry fewer than encoder_channels");
+  if (o.latent < 1) throw Error("rvae config: latent must be >= 1");
+  if (o.kernel < 1 || o.kernel % 2 == 0) throw Error("rvae config: kernel must be odd and >= 1");
+  if (!(o.input_dropout >= 0 && o.input_dropout < 1)) throw Error("rvae config: input_dropout must be in [0, 1)");
+  if (!(o.kl_weight >= 0)) throw Error("rvae config: kl_weight must be >= 0");
+  if (!(o.kl_anneal >= 0 && o.kl_anneal <= 1)) throw Error("rvae config: kl_anneal must be in [0, 1]");
+  if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
+  return o;
+}
+
+nlohmann::json RvaeOptions::to_json() const {
+  return {{"encoder_channels", encoder_channels},
+          {"control_channels", control_channels},
+          {"decoder_channels", decoder_channels},
+          {"latent", latent},
+          {"kernel", kernel},
+          {"input_dropout", input_dropout},
+          {"kl_weight", kl_weight},
+          {"kl_anneal", kl_anneal},
+          {"l1", l1}};
+}
+
+// ---------------------------------------------------------------------------------------------
+// ConvEncoder
+
+ConvEncoderImpl::ConvEncoderImpl(int in_dim, const std::vector<int>& channels, int kernel, int head_dim) {
+  convs = register_module("convs", torch::nn::ModuleList());
+  int in = in_dim;
+  for (int ch : channels) {
+    convs->push_back(torch::nn::Conv1d(torch::nn::Conv1dOptions(in, ch, kernel).padding(kernel / 2)));
+    in = ch;
+  }
+  if (head_dim > 0) head = register_module("head", torch::nn::Conv1d(torch::nn::Conv1dOptions(in, head_dim, 1)));
+}
+
+torch::Tensor ConvEncoderImpl::forward(const torch::Tensor& x) {
+  auto h = x.transpose(1, 2);  // [B, F, T']
+  for (const auto& m : *convs) {
+    h = activation(m->as<torch::nn::Conv1dImpl>()->forward(h));
+    h = torch::max_pool1d(h, 2);
+  }
+  if (head) h = head->forward(h);
+  return h.transpose(1, 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// RvaeCell
+
+RvaeCellImpl::RvaeCellImpl(int state_dim, int control_dim) {
+  gates_state = register_module("gates_state", torch::nn::Linear(state_dim, 2 * state_dim));
+  gates_control = register_module("gates_control", torch::nn::Linear(control_dim, 2 * state_dim));
+  state_in = register_module("state_in", torch::nn::Linear(torch::nn::LinearOptions(state_dim, state_dim).bias(false)));
+  control_in =
+      register_module("control_in", torch::nn::Linear(torch::nn::LinearOptions(control_dim, state_dim).bias(false)));
+}
+
+torch::Tensor RvaeCellImpl::forward(const torch::Tensor& prev, const torch::Tensor& control,
+                                    const torch::Tensor& latent, bool teacher_latent) {
+  const auto& s = teacher_latent ? latent : prev;
+  if (!s.defined()) throw Error(teacher_latent ? "rvae cell: teacher_latent needs a latent" : "rvae cell: no state");
+  auto gates = (gates_state->forward(s) + gates_control->forward(control)).sigmoid();
+  auto parts = gates.chunk(2, -1);
+  const auto& i = parts[0];
+  const auto& f = parts[1];
+  return activation(f * state_in->forward(s) + i * control_in->forward(control));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rvae
+
+RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
+    : MotionModel("Rvae"), options_(options), context_(context) {
+  const int d = context.pose_dim, c = context.control_dim, z = options.latent, k = options.kernel;
+  inference = register_module("inference", ConvEncoder(d, options.encoder_channels, k, 2 * z));
+  control_encoder = register_module("control_encoder", ConvEncoder(c, options.control_channels, k, 0));
+  cell = register_module("cell", RvaeCell(z, options.control_channels.back()));
+  deconvs = register_module("deconvs", torch::nn::ModuleList());
+  int in = z;
+  for (size_t b = 0; b < options.encoder_channels.size(); ++b) {
+    const int out = b < options.decoder_channels.size() ? options.decoder_channels[b] : d;
+    deconvs->push_back(torch::nn::Conv1d(torch::nn::Conv1dOptions(in, out, k).padding(k / 2)));
+    in = out;
+  }
+  kl_now_ = options.kl_weight;
+}
+
+void RvaeImpl::set_progress(int step, int total_steps) {
+  if (options_.kl_anneal <= 0 || total_steps <= 0) {
+    kl_now_ = options_.kl_weight;
+    return;
+  }
+  const double ramp = options_.kl_anneal * total_steps;
+  kl_now_ = options_.kl_weight * std::min(1.0, std::max(0.0, step / ramp));
+}
+
+torch::Tensor RvaeImpl::pad_time(const torch::Tensor& x) const {
+  const int64_t r = options_.reduction(), t = x.size(1);
+  const int64_t padded = (t + r - 1) / r * r;
+  if (padded == t) return x;
+  auto last = x.narrow(1, t - 1, 1).expand({x.size(0), padded - t, x.size(2)});
+  return torch::cat({x, last}, 1);
+}
+
+RvaeImpl::Posterior RvaeImpl::encode(const torch::Tensor& pose) {
+  if (pose.dim() != 3 || pose.size(2) != context_.pose_dim || pose.size(1) < 1)
+    throw Error("rvae: pose must be [B, T >= 1, " + std::to_string(context_.pose_dim) + "]");
+  auto h = inference->forward(pad_time(pose));
+  auto parts = h.chunk(2, -1);
+  return {parts[0], parts[1]};
+}
+
+torch::Tensor RvaeImpl::encode_control(const torch::Tensor& control) {
+  if (control.dim() != 3 || control.size(2) != context_.control_dim || control.size(1) < 1)
+    throw Error("rvae: control must be [B, T >= 1, " + std::to_string(context_.control_dim) + "]");
+  return control_encoder->forward(pad_time(control));
+}
+
+torch::Tensor RvaeImpl::run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents) {
+  const int64_t l = control_code.size(1), k = latents.size(1);
+  if (k < 1 || k > l) throw Error("rvae: run_decoder needs 1 to L latents");
+  std::vector<torch::Tensor> states;
+  states.reserve(l);
+  torch::Tensor prev;
+  for (int64_t t = 0; t < l; ++t) {
+    const bool teacher = t < k;
+    prev = cell->forward(prev, control_code.select(1, t), teacher ? latents.select(1, t) : torch::Tensor(), teacher);
+    states.push_back(prev);
+  }
+  return torch::stack(states, 1);
+}
+
+torch::Tensor RvaeImpl::decode_canvas(const torch::Tensor& canvas) {
+  auto h = canvas.transpose(1, 2);  // [B, Z, L]
+  const size_t n = deconvs->size();
+  for (size_t b = 0; b < n; ++b) {
+    h = h.repeat_interleave(2, 2);  // nearest-neighbour upsampling x2
+    h = (*deconvs)[b]->as<torch::nn::Conv1dImpl>()->forward(h);
+    if (b + 1 < n) h = activation(h);
+  }
+  return h.transpose(1, 2);
+}
+
+torch::Tensor RvaeImpl::kl_to_unit_gaussian(const torch::Tensor& mean, const torch::Tensor& logvar) {
+  return 0.5 * (mean.pow(2) + logvar.exp() - 1.0 - logvar).sum(-1);
+}
+
+LossTerms RvaeImpl::loss(const Batch& batch) {
+  const auto& pose = batch.pose;
+  const auto& control = batch.control;
+  if (pose.dim() != 3 || pose.size(2) != context_.pose_dim || pose.size(1) < 1)
+    throw Error("rvae: pose must be [B, T >= 1, " + std::to_string(context_.pose_dim) + "]");
+  if (control.dim() != 3 || control.size(0) != pose.size(0) || control.size(1) != pose.size(1))
+    throw Error("rvae: control must be [B, T, C] matching pose");
+  const int64_t b = pose.size(0), t = pose.size(1), d = context_.pose_dim;
+  auto pose_in = pose, control_in = control;
+  const double p = options_.input_dropout;
+  if (is_training() && p > 0) {
+    // Element-wise dropout on the encoders' inputs; masks from the default CPU generator.
+    auto mask = [&](const torch::Tensor& x) {
+      return (torch::bernoulli(torch::full(x.sizes(), 1.0 - p)) / (1.0 - p)).to(x.options());
+    };
+    pose_in = pose * mask(pose);
+    control_in = control * mask(control);
+  }
+  auto post = encode(pose_in);
+  auto hc = encode_control(control_in);
+  auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(post.mean.scalar_type()))
+                 .to(post.mean.device());
+  auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
+  auto x_hat = decode_canvas(run_decoder(hc, z)).narrow(1, 0, t);
+  auto recon = (0.5 * (x_hat - pose).pow(2).sum(-1) + 0.5 * d * kLog2Pi).mean();      // per frame
+  auto kl = kl_to_unit_gaussian(post.mean, post.logvar).sum(1).mean() / static_cast<double>(t);
+  const double w = is_training() ? kl_now_ : options_.kl_weight;
+  auto total = (recon + w * kl) / static_cast<double>(d);
+  if (options_.l1 > 0 && is_training()) {
+    auto pen = torch::zeros({}, total.options());
+    for (const auto& kv : named_parameters())
+      if (kv.key().size() >= 6 && kv.key().compare(kv.key().size() - 6, 6, "weight") == 0)
+        pen = pen + kv.value().abs().sum();
+    total = total + options_.l1 * pen;
+  }
+  (void)b;
+  LossTerms out;
+  out.terms["loss"] = total;
+  out.terms["recon"] = recon.detach();
+  out.terms["kl"] = kl.detach();
+  out.terms["nll_frame"] = (recon + kl).detach();
+  out.terms["nll_dim"] = ((recon + kl) / static_cast<double>(d)).detach();
+  out.terms["kl_weight"] = torch::full({}, w, total.options()).detach();
+  return out;
+}
+
+torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  const int64_t d = context_.pose_dim, c = context_.control_dim, z = options_.latent;
+  if (!request.control.defined() || request.control.dim() != 3 || request.control.size(2) != c)
+    throw Error("sample request: control must be [B, T, " + std::to_string(c) + "]");
+  const int64_t b = request.control.size(0), t = request.control.size(1);
+  auto opts = cell->state_in->weight.options();
+  if (t == 0) return torch::zeros({b, 0, d}, opts);
+  auto gen = at::detail::createCPUGenerator(request.seed);
+  auto cpu = torch::TensorOptions().dtype(opts.dtype());
+  auto control = request.control.to(opts);
+  int64_t p = 0;
+  torch::Tensor latents;
+  if (request.prefix_pose.defined() && request.prefix_pose.size(1) > 0) {
+    const auto& pre = request.prefix_pose;
+    if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
+      throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
+    p = pre.size(1);
+    torch::Tensor pre_ctrl;
+    if (request.prefix_control.defined()) {
+      if (request.prefix_control.dim() != 3 || request.prefix_control.size(0) != b ||
+          request.prefix_control.size(1) != p || request.prefix_control.size(2) != c)
+        throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
+      pre_ctrl = request.prefix_control.to(opts);
+    } else {
+      pre_ctrl = torch::zeros({b, p, c}, opts);
+    }
+    control = torch::cat({pre_ctrl, control}, 1);
+    auto post = encode(pre.to(opts));  // [B, K, Z], K = ceil(P / R)
+    auto eps = torch::randn(post.mean.sizes(), gen, cpu).to(opts.device());
+    latents = post.mean + request.temperature * torch::exp(0.5 * post.logvar) * eps;
+  } else {
+    latents = (request.temperature * torch::randn({b, 1, z}, gen, cpu)).to(opts.device());
+  }
+  auto hc = encode_control(control);
+  auto x = decode_canvas(run_decoder(hc, latents));
+  return x.narrow(1, p, t).contiguous();
+}
+
+std::shared_ptr<MotionModel> make_rvae(const nlohmann::json& config, const ModelContext& context) {
+  return std::make_shared<RvaeImpl>(RvaeOptions::from_json(config), context);
+}
+
+}  // namespace mosyn::nn

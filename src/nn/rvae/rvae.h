@@ -1,0 +1,146 @@
+// Recurrent variational autoencoder for controllable motion synthesis ("VAE-LSTM"):
+// Habibie, Holden, Schwarz, Yearsley & Komura, "A Recurrent Variational Autoencoder for Human
+// Motion Synthesis" (BMVC 2017), /work/shared/papers/habibie2017-recurrent-vae.txt.
+// Family name "rvae". See src/nn/rvae/README.md for the full description and the choices made
+// where the paper is silent.
+//
+//   pose    [B, T, D] --pad--> [B, T', D], T' = multiple of R = 2^num_blocks
+//     inference network: (Conv1d k 'same' -> ELU -> MaxPool1d(2)) x num_blocks, then a 1x1 conv
+//     head -> mean, logvar [B, L, Z], L = T'/R reduced steps
+//   control [B, T, C] --pad--> control encoder of the same form (no head) -> h_c [B, L, Hc]
+//   decoder cell (paper Eqs. 7-9), cell state of size Z:
+//     s_t = z_t (teacher_latent: the state is SET to the latent) or c_{t-1} (free running)
+//     i_t = sigmoid(W_ic s_t + W_ih h_c,t),  f_t = sigmoid(W_fc s_t + W_fh h_c,t)
+//     c_t = ELU(f_t * W_c s_t + i_t * W_h h_c,t)
+//   canvas [B, L, Z] = the cell states over time
+//   deconvolution network: (Upsample x2 -> Conv1d k 'same' [-> ELU]) x num_blocks -> [B, T', D],
+//     cropped to [B, T, D]
+// All tensors standardised (nn/model.h conventions).
+#pragma once
+
+#include <torch/nn/modules/container/modulelist.h>
+#include <torch/nn/modules/conv.h>
+#include <torch/nn/modules/linear.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nn/model.h"
+
+namespace mosyn::nn {
+
+// Hyper-parameters; JSON keys are the field names. Defaults follow the paper (Sec. 4.2) except
+// where noted in the README.
+struct RvaeOptions {
+  std::vector<int> encoder_channels = {64, 256};  // inference-network conv channels per block
+  std::vector<int> control_channels = {64, 128};  // control-encoder conv channels per block (last = Hc)
+  std::vector<int> decoder_channels = {128};      // hidden deconv channels (num_blocks - 1 entries)
+  int latent = 128;            // Z: latent size = decoder cell-state size (LSTM units)
+  int kernel = 25;             // temporal kernel width of every conv (odd, 'same' padding)
+  double input_dropout = 0.1;  // dropout on the encoders' inputs (pose and control), training only
+  double kl_weight = 1.0;      // weight of the KL term once annealing is over
+  double kl_anneal = 0.0;      // fraction of the training steps over which the KL weight ramps
+                               // linearly from 0 to kl_weight (0 = no annealing, as the paper)
+  double l1 = 0.0;             // L1 penalty on the weights (sum |w| x l1, added to "loss")
+
+  int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
+  int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
+
+  // Overrides of the defaults; throws mosyn::Error on an unknown key or a bad value.
+  static RvaeOptions from_json(const nlohmann::json& config);
+  nlohmann::json to_json() const;
+};
+
+// Conv1d('same') -> ELU -> MaxPool1d(2) blocks, optionally followed by a 1x1 conv head.
+// forward: x [B, T', F] with T' a multiple of 2^blocks -> [B, T'/2^blocks, out] (batch-first).
+class ConvEncoderImpl : public torch::nn::Module {
+ public:
+  ConvEncoderImpl(int in_dim, const std::vector<int>& channels, int kernel, int head_dim /* 0 = none */);
+  torch::Tensor forward(const torch::Tensor& x);
+  torch::nn::ModuleList convs;
+  torch::nn::Conv1d head{nullptr};
+};
+TORCH_MODULE(ConvEncoder);
+
+// The paper's modified LSTM cell (Eqs. 7-9); no output gate: the cell state is the output.
+class RvaeCellImpl : public torch::nn::Module {
+ public:
+  RvaeCellImpl(int state_dim, int control_dim);
+  // prev [B, Z] previous cell state c_{t-1}; control [B, Hc] encoded control h_c,t;
+  // latent [B, Z] z_t. teacher_latent = true: the state entering the step is the latent
+  // (training, Eq. 9 top; prev is ignored); false: it is prev (test time, Eq. 9 bottom; latent
+  // ignored, may be undefined). Returns c_t [B, Z].
+  torch::Tensor forward(const torch::Tensor& prev, const torch::Tensor& control, const torch::Tensor& latent,
+                        bool teacher_latent);
+  torch::nn::Linear gates_state{nullptr};    // [W_ic; W_fc] (with b_ic, b_fc)
+  torch::nn::Linear gates_control{nullptr};  // [W_ih; W_fh] (with b_ih, b_fh)
+  torch::nn::Linear state_in{nullptr};       // W_c (no bias)
+  torch::nn::Linear control_in{nullptr};     // W_h (no bias)
+};
+TORCH_MODULE(RvaeCell);
+
+class RvaeImpl : public MotionModel {
+ public:
+  RvaeImpl(const RvaeOptions& options, const ModelContext& context);
+
+  std::string family() const override { return "rvae"; }
+  nlohmann::json config() const override { return options_.to_json(); }
+  const RvaeOptions& options() const { return options_; }
+
+  // KL annealing: weight = kl_weight * min(1, step / (kl_anneal * total_steps)).
+  void set_progress(int step, int total_steps) override;
+  double current_kl_weight() const { return kl_now_; }
+
+  // Negative ELBO with one posterior sample per reduced step (reparameterised, default CPU
+  // generator), decoder in teacher_latent mode. Terms (nats per frame, standardised space):
+  // "recon" Gaussian NLL with unit variance, 0.5 sum_d (x - x_hat)^2 + D/2 log(2 pi);
+  // "kl" sum over latent dims and reduced steps of KL(q || N(0, I)), divided by T;
+  // "nll_frame" = recon + kl (the negative ELBO per frame, an upper bound of the NLL);
+  // "nll_dim" = nll_frame / D; "kl_weight"; "loss" = (recon + w kl) / D (+ l1 penalty) with
+  // w the annealed weight in training and kl_weight in eval (so validation is comparable).
+  LossTerms loss(const Batch& batch) override;
+
+  // control [B, T, C], any T >= 1. Without prefix_pose: z_1 ~ N(0, temperature^2 I) (prior,
+  // the paper's Algorithm 1). With prefix_pose [B, P, D] (and prefix_control [B, P, C], zeros =
+  // mean control when undefined): the prefix is encoded, its K = ceil(P / R) reduced steps take
+  // z_k = mu_k + temperature sigma_k eps (teacher_latent), the remaining steps run freely, and
+  // the P prefix frames are cropped from the output. Returns [B, T, D].
+  torch::Tensor sample(const SampleRequest& request) override;
+
+  struct Posterior {
+    torch::Tensor mean;    // [B, L, Z]
+    torch::Tensor logvar;  // [B, L, Z]
+  };
+  // pose [B, T, D] (any T >= 1; padded internally to a multiple of R by repeating the last
+  // frame) -> posterior of the L = ceil(T / R) reduced steps.
+  Posterior encode(const torch::Tensor& pose);
+  // control [B, T, C] -> h_c [B, ceil(T / R), Hc].
+  torch::Tensor encode_control(const torch::Tensor& control);
+  // Runs the cell over the L reduced steps: h_c [B, L, Hc]; latents [B, K, Z] (K >= 1). Steps
+  // k < K use latents[k] as the state entering the step (teacher_latent); steps k >= K run
+  // from the previous cell state. K = L is the training mode. Returns the canvas [B, L, Z].
+  torch::Tensor run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents);
+  // canvas [B, L, Z] -> poses [B, L * R, D] (the caller crops).
+  torch::Tensor decode_canvas(const torch::Tensor& canvas);
+  // Closed-form KL(N(mean, exp(logvar)) || N(0, I)) summed over the last dimension: [B, L].
+  static torch::Tensor kl_to_unit_gaussian(const torch::Tensor& mean, const torch::Tensor& logvar);
+  // [B, T, F] -> [B, ceil(T / R) * R, F] repeating the last frame.
+  torch::Tensor pad_time(const torch::Tensor& x) const;
+
+  ConvEncoder inference{nullptr};
+  ConvEncoder control_encoder{nullptr};
+  RvaeCell cell{nullptr};
+  torch::nn::ModuleList deconvs;
+
+ private:
+  RvaeOptions options_;
+  ModelContext context_;
+  double kl_now_ = 1.0;
+};
+TORCH_MODULE(Rvae);
+
+// Factory used by create_model("rvae", ...).
+std::shared_ptr<MotionModel> make_rvae(const nlohmann::json& config, const ModelContext& context);
+
+}  // namespace mosyn::nn

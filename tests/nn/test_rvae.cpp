@@ -1,0 +1,335 @@
+// Recurrent VAE (family "rvae"): shapes for odd lengths, the decoder cell's teacher/free switch,
+// closed-form KL, learning on noisy sinusoids, sampling determinism, long controls, registry,
+// and a short run through the shared trainer.
+#include <gtest/gtest.h>
+#include <torch/optim/adam.h>
+#include <torch/utils.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "nn/model.h"
+#include "nn/rvae/rvae.h"
+#include "nn/training/train.h"
+
+using namespace mosyn;
+using namespace mosyn::nn;
+namespace fs = std::filesystem;
+
+namespace {
+
+ModelContext small_context(int d = 6, int c = 3) {
+  ModelContext ctx;
+  ctx.pose_dim = d;
+  ctx.control_dim = c;
+  return ctx;
+}
+
+nlohmann::json tiny_config() {
+  return {{"encoder_channels", {8, 12}}, {"control_channels", {6, 10}}, {"decoder_channels", {8}},
+          {"latent", 5},                 {"kernel", 5},                 {"input_dropout", 0.0}};
+}
+
+std::shared_ptr<RvaeImpl> tiny_model(int d = 6) {
+  torch::manual_seed(1);
+  auto m = std::dynamic_pointer_cast<RvaeImpl>(create_model("rvae", tiny_config(), small_context(d)));
+  m->eval();
+  return m;
+}
+
+// ---- synthetic dataset, copied from tests/nn/test_training.cpp ----
+constexpr int kDim = 6;
+
+float d_sign(int t) { return (t / 10) % 2 ? 1.0f : -1.0f; }
+
+data::ClipRecord sine_clip(std::mt19937& rng, int frames) {
+  std::uniform_real_distribution<float> u(0, 6.28f), f(0.2f, 0.5f);
+  std::normal_distribution<float> noise(0, 0.05f);
+  data::ClipRecord c;
+  c.num_frames = frames;
+  const float phase = u(rng), freq = f(rng);
+  for (int t = 0; t < frames; ++t) {
+    for (int d = 0; d < kDim; ++d) c.pose.push_back(std::sin(freq * t + phase + 0.7f * d) + noise(rng));
+    c.control.insert(c.control.end(), {freq, 0.0f, 0.01f * d_sign(t)});
+  }
+  return c;
+}
+
+data::Dataset synthetic_dataset() {
+  std::mt19937 rng(7);
+  data::Dataset ds;
+  auto& info = ds.info_;
+  info.fps = 20;
+  info.skeleton.joint_names = {"Root", "Tip"};
+  info.skeleton.parents = {-1, 0};
+  info.skeleton.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0)};
+  info.layout.form = data::PoseForm::kPositions;
+  info.layout.pose_dim = kDim;
+  info.layout.control_dim = 3;
+  for (int d = 0; d < kDim; ++d) info.layout.pose_names.push_back("p" + std::to_string(d));
+  info.layout.control_names = {"dx_m", "dz_m", "dtheta_rad"};
+  info.window_frames = 16;
+  info.window_hop = 8;
+  info.content_labels = {"walk"};
+  for (int i = 0; i < 6; ++i) ds.train_.push_back(sine_clip(rng, 40));
+  for (int i = 0; i < 2; ++i) ds.val_.push_back(sine_clip(rng, 40));
+  ds.stats_.pose_mean.assign(kDim, 0.0f);
+  ds.stats_.pose_std.assign(kDim, 0.7f);
+  ds.stats_.control_mean = {0.35f, 0.0f, 0.0f};
+  ds.stats_.control_std = {0.1f, 1.0f, 0.01f};
+  return ds;
+}
+
+}  // namespace
+
+TEST(Rvae, ShapesForOddLengths) {
+  torch::set_num_threads(1);
+  auto model = tiny_model();
+  for (int64_t t : {1, 37, 61, 240}) {
+    const int64_t b = 2, l = (t + 3) / 4;
+    auto pose = torch::randn({b, t, 6}), control = torch::randn({b, t, 3});
+    auto post = model->encode(pose);
+    ASSERT_EQ(post.mean.sizes(), (std::vector<int64_t>{b, l, 5})) << "T " << t;
+    ASSERT_EQ(post.logvar.sizes(), (std::vector<int64_t>{b, l, 5}));
+    auto hc = model->encode_control(control);
+    ASSERT_EQ(hc.sizes(), (std::vector<int64_t>{b, l, 10}));
+    auto canvas = model->run_decoder(hc, post.mean);
+    ASSERT_EQ(canvas.sizes(), (std::vector<int64_t>{b, l, 5}));
+    auto x = model->decode_canvas(canvas);
+    ASSERT_EQ(x.sizes(), (std::vector<int64_t>{b, 4 * l, 6}));
+    auto terms = model->loss({pose, control, {}, {}});
+    EXPECT_TRUE(std::isfinite(terms.loss().item<double>()));
+    SampleRequest req;
+    req.control = control;
+    EXPECT_EQ(model->sample(req).sizes(), (std::vector<int64_t>{b, t, 6}));
+  }
+  EXPECT_EQ(RvaeOptions().reduction(), 4);  // paper: 240 -> 60 steps
+}
+
+TEST(Rvae, CellTeacherAndFreeModes) {
+  torch::manual_seed(2);
+  RvaeCell cell(6, 4);
+  cell->to(torch::kFloat64);
+  auto o = torch::TensorOptions().dtype(torch::kFloat64);
+  auto prev1 = torch::randn({3, 6}, o), prev2 = torch::randn({3, 6}, o);
+  auto h = torch::randn({3, 4}, o), z = torch::randn({3, 6}, o);
+  // Teacher mode: the state entering the step is the latent; the previous state does not matter.
+  auto t1 = cell->forward(prev1, h, z, true), t2 = cell->forward(prev2, h, z, true);
+  EXPECT_TRUE(torch::allclose(t1, t2));
+  EXPECT_TRUE(torch::allclose(t1, cell->forward(z, h, torch::Tensor(), false)));
+  EXPECT_TRUE(torch::allclose(cell->forward(torch::Tensor(), h, z, true), t1));
+  // Free mode: depends on the previous state, not on the latent.
+  auto f1 = cell->forward(prev1, h, z, false), f2 = cell->forward(prev2, h, z, false);
+  EXPECT_GT((f1 - f2).abs().max().item<double>(), 1e-6);
+  EXPECT_TRUE(torch::allclose(f1, cell->forward(prev1, h, torch::randn({3, 6}, o), false)));
+  EXPECT_GT((f1 - t1).abs().max().item<double>(), 1e-6);
+  EXPECT_THROW(cell->forward(prev1, h, torch::Tensor(), true), mosyn::Error);
+  // Eq. 9 by hand: c = ELU(f * W_c s + i * W_h h).
+  auto g = torch::sigmoid(cell->gates_state->forward(prev1) + cell->gates_control->forward(h)).chunk(2, -1);
+  auto pre = g[1] * prev1.matmul(cell->state_in->weight.t()) + g[0] * h.matmul(cell->control_in->weight.t());
+  auto by_hand = torch::where(pre > 0, pre, torch::exp(pre) - 1);
+  EXPECT_TRUE(torch::allclose(f1, by_hand, 1e-10, 1e-10));
+}
+
+TEST(Rvae, DecoderTeacherAndFreeRunning) {
+  auto model = tiny_model();
+  torch::NoGradGuard ng;
+  auto hc = torch::randn({2, 7, 10}), z = torch::randn({2, 7, 5});
+  auto teach = model->run_decoder(hc, z);
+  // Training: each step starts from its latent.
+  for (int64_t t = 0; t < 7; ++t)
+    EXPECT_TRUE(torch::allclose(teach.select(1, t), model->cell->forward(z.select(1, t), hc.select(1, t), {}, false)));
+  // Free running from z_1: steps > 1 run from the previous cell state.
+  auto free = model->run_decoder(hc, z.narrow(1, 0, 1));
+  EXPECT_TRUE(torch::allclose(free.select(1, 0), teach.select(1, 0)));
+  EXPECT_GT((free - teach).abs().max().item<double>(), 1e-6);
+  for (int64_t t = 1; t < 7; ++t)
+    EXPECT_TRUE(torch::allclose(free.select(1, t),
+                                model->cell->forward(free.select(1, t - 1), hc.select(1, t), {}, false)));
+}
+
+TEST(Rvae, KlMatchesClosedFormByHand) {
+  // KL(N(m, s^2) || N(0, 1)) = 0.5 (m^2 + s^2 - 1 - log s^2) per dimension.
+  auto mean = torch::tensor({0.5, -1.0}, torch::kFloat64).reshape({1, 1, 2});
+  auto logvar = torch::tensor({std::log(2.0), 0.0}, torch::kFloat64).reshape({1, 1, 2});
+  const double expect = 0.5 * (0.25 + 2.0 - 1.0 - std::log(2.0)) + 0.5 * (1.0 + 1.0 - 1.0 - 0.0);
+  EXPECT_NEAR(RvaeImpl::kl_to_unit_gaussian(mean, logvar).item<double>(), expect, 1e-12);
+  // The loss reports sum over steps and dims / T, with the model's own posterior.
+  auto model = tiny_model();
+  model->to(torch::kFloat64);
+  auto pose = torch::randn({3, 19, 6}, torch::kFloat64), control = torch::randn({3, 19, 3}, torch::kFloat64);
+  auto post = model->encode(pose);
+  auto kl = (0.5 * (post.mean.pow(2) + post.logvar.exp() - 1 - post.logvar)).sum({1, 2}).mean() / 19.0;
+  auto terms = model->loss({pose, control, {}, {}});
+  EXPECT_NEAR(terms.terms.at("kl").item<double>(), kl.item<double>(), 1e-9);
+  EXPECT_NEAR(terms.terms.at("nll_frame").item<double>(),
+              terms.terms.at("recon").item<double>() + terms.terms.at("kl").item<double>(), 1e-9);
+  EXPECT_NEAR(terms.loss().item<double>(), terms.terms.at("nll_dim").item<double>(), 1e-9);
+}
+
+TEST(Rvae, KlAnnealing) {
+  auto model = create_model("rvae", {{"kl_anneal", 0.5}, {"kl_weight", 2.0}, {"latent", 4}, {"kernel", 3}},
+                            small_context());
+  auto& r = dynamic_cast<RvaeImpl&>(*model);
+  model->set_progress(1, 100);
+  EXPECT_NEAR(r.current_kl_weight(), 2.0 * 1 / 50.0, 1e-12);
+  model->set_progress(25, 100);
+  EXPECT_NEAR(r.current_kl_weight(), 1.0, 1e-12);
+  model->set_progress(80, 100);
+  EXPECT_NEAR(r.current_kl_weight(), 2.0, 1e-12);
+}
+
+TEST(Rvae, LossFallsOnNoisySinusoids) {
+  torch::set_num_threads(1);
+  torch::manual_seed(11);
+  const int64_t b = 16, t = 24, d = 4;
+  nlohmann::json cfg = tiny_config();
+  cfg["encoder_channels"] = {16, 16};
+  cfg["control_channels"] = {8, 8};
+  cfg["decoder_channels"] = {16};
+  cfg["latent"] = 8;
+  cfg["input_dropout"] = 0.1;
+  auto model = create_model("rvae", cfg, small_context(d));
+  torch::optim::Adam opt(model->parameters(), torch::optim::AdamOptions(3e-3));
+  auto make_batch = [&]() {
+    auto phase = torch::rand({b, 1, 1}) * 6.283;
+    auto freq = 0.3 + torch::rand({b, 1, 1}) * 0.2;
+    auto tt = torch::arange(t).reshape({1, t, 1});
+    auto offs = torch::arange(d).reshape({1, 1, d}) * 0.7;
+    auto pose = torch::sin(freq * tt + phase + offs) + 0.05 * torch::randn({b, t, d});
+    auto control = torch::cat({freq.expand({b, t, 1}), torch::zeros({b, t, 2})}, -1);
+    return Batch{pose, control, {}, {}};
+  };
+  model->train();
+  double first = 0, last = 0, first_recon = 0, last_recon = 0;
+  for (int step = 0; step < 150; ++step) {
+    model->set_progress(step + 1, 150);
+    auto terms = model->loss(make_batch());
+    opt.zero_grad();
+    terms.loss().backward();
+    opt.step();
+    double v = terms.terms.at("nll_dim").item<double>(), r = terms.terms.at("recon").item<double>();
+    if (step < 10) first += v / 10, first_recon += r / 10;
+    if (step >= 140) last += v / 10, last_recon += r / 10;
+  }
+  // The marginal variance of a unit sinusoid is 0.5: predicting zero costs ~0.25 nats/dim above
+  // the Gaussian constant 0.92; a good fit approaches the constant.
+  EXPECT_LT(last, first - 0.1) << "first " << first << " last " << last;
+  EXPECT_LT(last_recon, first_recon - 0.4) << "recon first " << first_recon << " last " << last_recon;
+}
+
+TEST(Rvae, SamplingIsDeterministicPerSeed) {
+  auto model = tiny_model();
+  torch::manual_seed(8);
+  SampleRequest req;
+  req.control = torch::randn({3, 29, 3});
+  req.seed = 42;
+  auto a = model->sample(req), a2 = model->sample(req);
+  ASSERT_EQ(a.sizes(), (std::vector<int64_t>{3, 29, 6}));
+  EXPECT_TRUE(torch::equal(a, a2));
+  EXPECT_TRUE(torch::isfinite(a).all().item<bool>());
+  req.seed = 43;
+  EXPECT_GT((a - model->sample(req)).abs().max().item<double>(), 1e-4);
+  // From the posterior of a prefix.
+  req.prefix_pose = torch::randn({3, 5, 6});
+  req.prefix_control = torch::randn({3, 5, 3});
+  req.seed = 42;
+  auto p = model->sample(req);
+  ASSERT_EQ(p.sizes(), (std::vector<int64_t>{3, 29, 6}));
+  EXPECT_TRUE(torch::equal(p, model->sample(req)));
+  req.seed = 44;
+  EXPECT_GT((p - model->sample(req)).abs().max().item<double>(), 1e-5);
+  req.prefix_control = torch::Tensor();  // mean control for the prefix
+  EXPECT_EQ(model->sample(req).sizes(), (std::vector<int64_t>{3, 29, 6}));
+  // Temperature 0: the prior mean / posterior mean, independent of the seed.
+  req.prefix_pose = torch::Tensor();
+  req.temperature = 0.0;
+  req.seed = 1;
+  auto z0 = model->sample(req);
+  req.seed = 2;
+  EXPECT_TRUE(torch::equal(z0, model->sample(req)));
+  // Bad shapes throw.
+  req.control = torch::randn({3, 29, 2});
+  EXPECT_THROW(model->sample(req), mosyn::Error);
+}
+
+TEST(Rvae, SamplesControlLongerThanTrainingWindow) {
+  auto model = tiny_model();
+  model->train();
+  auto terms = model->loss({torch::randn({2, 16, 6}), torch::randn({2, 16, 3}), {}, {}});
+  EXPECT_TRUE(std::isfinite(terms.loss().item<double>()));
+  model->eval();
+  SampleRequest req;
+  req.control = torch::randn({2, 203, 3});
+  req.seed = 5;
+  auto x = model->sample(req);
+  ASSERT_EQ(x.sizes(), (std::vector<int64_t>{2, 203, 6}));
+  EXPECT_TRUE(torch::isfinite(x).all().item<bool>());
+  // The latter part of a long sequence still follows the control (not constant across batch).
+  EXPECT_GT((x.select(0, 0) - x.select(0, 1)).narrow(0, 150, 50).abs().max().item<double>(), 1e-6);
+}
+
+TEST(Rvae, RegistryAndConfig) {
+  auto families = model_families();
+  EXPECT_NE(std::find(families.begin(), families.end(), "rvae"), families.end());
+  auto m = create_model("rvae", nlohmann::json::object(), small_context());
+  EXPECT_EQ(m->family(), "rvae");
+  auto cfg = m->config();
+  EXPECT_EQ(cfg.at("kernel"), 25);
+  EXPECT_EQ(cfg.at("latent"), 128);
+  EXPECT_EQ(cfg.at("encoder_channels"), nlohmann::json({64, 256}));
+  EXPECT_EQ(cfg.at("control_channels"), nlohmann::json({64, 128}));
+  EXPECT_EQ(cfg.at("decoder_channels"), nlohmann::json({128}));
+  auto m2 = create_model("rvae", cfg, small_context());
+  EXPECT_EQ(m2->config(), cfg);
+  auto ctx = small_context();
+  EXPECT_THROW(create_model("rvae", {{"nonsense", 1}}, ctx), mosyn::Error);
+  EXPECT_THROW(create_model("rvae", {{"kernel", 4}}, ctx), mosyn::Error);
+  EXPECT_THROW(create_model("rvae", {{"latent", 0}}, ctx), mosyn::Error);
+  EXPECT_THROW(create_model("rvae", {{"encoder_channels", {8}}}, ctx), mosyn::Error);
+  EXPECT_THROW(create_model("rvae", {{"input_dropout", 1.0}}, ctx), mosyn::Error);
+  EXPECT_THROW(create_model("rvae", {{"kernel", "x"}}, ctx), mosyn::Error);
+  // Three blocks: reduction 8.
+  auto m3 = create_model("rvae",
+                         {{"encoder_channels", {4, 4, 4}}, {"control_channels", {4, 4, 4}},
+                          {"decoder_channels", {4, 4}}, {"latent", 3}, {"kernel", 3}},
+                         ctx);
+  SampleRequest req;
+  req.control = torch::randn({1, 13, 3});
+  EXPECT_EQ(m3->sample(req).sizes(), (std::vector<int64_t>{1, 13, 6}));
+}
+
+TEST(Rvae, TrainsThroughSharedTrainer) {
+  const auto ds = synthetic_dataset();
+  auto dir = fs::temp_directory_path() / ("mosyn_nn_rvae_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  TrainOptions o;
+  o.family = "rvae";
+  o.out_dir = dir.string();
+  o.model_config = tiny_config();
+  o.model_config["kl_anneal"] = 0.5;
+  o.steps = 4;
+  o.batch = 4;
+  o.lr = 1e-3;
+  o.warmup = 0;
+  o.threads = 1;
+  o.checkpoint_every = 4;
+  o.validate_every = 2;
+  o.log_every = 1;
+  o.seed = 3;
+  std::vector<TrainProgress> progress;
+  TrainCallbacks cb;
+  cb.on_progress = [&](const TrainProgress& p) { progress.push_back(p); };
+  auto r = train(o, ds, cb);
+  EXPECT_EQ(r.step, 4);
+  EXPECT_TRUE(std::isfinite(r.last_loss));
+  EXPECT_TRUE(std::isfinite(r.best_val_loss));
+  ASSERT_FALSE(progress.empty());
+  EXPECT_TRUE(progress.back().metrics.count("kl"));
+  EXPECT_TRUE(progress.back().metrics.count("recon"));
+  EXPECT_TRUE(fs::exists(dir / "checkpoint.pt"));
+  fs::remove_all(dir);
+}
