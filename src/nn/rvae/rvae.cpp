@@ -215,7 +215,7 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     throw Error("rvae: pose must be [B, T >= 1, " + std::to_string(context_.pose_dim) + "]");
   if (control.dim() != 3 || control.size(0) != pose.size(0) || control.size(1) != pose.size(1))
     throw Error("rvae: control must be [B, T, C] matching pose");
-  const int64_t b = pose.size(0), t = pose.size(1), d = context_.pose_dim;
+  const int64_t t = pose.size(1), d = context_.pose_dim;
   auto pose_in = pose, control_in = control;
   const double p = options_.input_dropout;
   if (is_training() && p > 0) {
@@ -243,7 +243,6 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
         pen = pen + kv.value().abs().sum();
     total = total + options_.l1 * pen;
   }
-  (void)b;
   LossTerms out;
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();
