@@ -9,8 +9,11 @@
 
 #include "core/error.h"
 #include "nn/moglow/moglow.h"
+#include "nn_test_util.h"
 
 using namespace mosyn::nn;
+using mosyn::nn::testing::noisy_sinusoid_batch;
+using mosyn::nn::testing::small_context;
 
 namespace {
 
@@ -40,12 +43,6 @@ void randomise(MoGlowImpl& model, double scale = 0.3) {
   }
 }
 
-ModelContext small_context(int d = 6, int c = 3) {
-  ModelContext ctx;
-  ctx.pose_dim = d;
-  ctx.control_dim = c;
-  return ctx;
-}
 
 std::shared_ptr<MoGlowImpl> small_model(int d = 6, int k = 3, int tau = 2, int layers = 2) {
   torch::manual_seed(1);
@@ -209,15 +206,7 @@ TEST(MoGlow, NllFallsOnNoisySinusoids) {
   nlohmann::json cfg = {{"num_steps", 2}, {"hidden", 32}, {"tau", 3}, {"dropout", 0.0}};
   auto model = create_model("moglow", cfg, small_context(d));
   torch::optim::Adam opt(model->parameters(), torch::optim::AdamOptions(3e-3));
-  auto make_batch = [&]() {
-    auto phase = torch::rand({b, 1, 1}) * 6.283;
-    auto freq = 0.3 + torch::rand({b, 1, 1}) * 0.2;
-    auto tt = torch::arange(t).reshape({1, t, 1});
-    auto offs = torch::arange(d).reshape({1, 1, d}) * 0.7;
-    auto pose = torch::sin(freq * tt + phase + offs) + 0.05 * torch::randn({b, t, d});
-    auto control = torch::cat({freq.expand({b, t, 1}), torch::zeros({b, t, 2})}, -1);
-    return Batch{pose, control, {}, {}};
-  };
+  auto make_batch = [&]() { return noisy_sinusoid_batch(b, t, d); };
   model->train();
   double first = 0, last = 0;
   for (int step = 0; step < 200; ++step) {

@@ -16,19 +16,17 @@
 #include "nn/run.h"
 #include "nn/sampling.h"
 #include "nn/training/train.h"
+#include "nn_test_util.h"
 
 using namespace mosyn;
 using namespace mosyn::nn;
 namespace fs = std::filesystem;
+using nn::testing::kDim;
+using nn::testing::noisy_sinusoid_batch;
+using nn::testing::small_context;
+using nn::testing::synthetic_dataset;
 
 namespace {
-
-ModelContext small_context(int d = 6, int c = 3) {
-  ModelContext ctx;
-  ctx.pose_dim = d;
-  ctx.control_dim = c;
-  return ctx;
-}
 
 nlohmann::json tiny_config() {
   return {{"encoder_channels", {8, 12}}, {"control_channels", {6, 10}}, {"decoder_channels", {8}},
@@ -40,49 +38,6 @@ std::shared_ptr<RvaeImpl> tiny_model(int d = 6) {
   auto m = std::dynamic_pointer_cast<RvaeImpl>(create_model("rvae", tiny_config(), small_context(d)));
   m->eval();
   return m;
-}
-
-// ---- synthetic dataset, copied from tests/nn/test_training.cpp ----
-constexpr int kDim = 6;
-
-float d_sign(int t) { return (t / 10) % 2 ? 1.0f : -1.0f; }
-
-data::ClipRecord sine_clip(std::mt19937& rng, int frames) {
-  std::uniform_real_distribution<float> u(0, 6.28f), f(0.2f, 0.5f);
-  std::normal_distribution<float> noise(0, 0.05f);
-  data::ClipRecord c;
-  c.num_frames = frames;
-  const float phase = u(rng), freq = f(rng);
-  for (int t = 0; t < frames; ++t) {
-    for (int d = 0; d < kDim; ++d) c.pose.push_back(std::sin(freq * t + phase + 0.7f * d) + noise(rng));
-    c.control.insert(c.control.end(), {freq, 0.0f, 0.01f * d_sign(t)});
-  }
-  return c;
-}
-
-data::Dataset synthetic_dataset() {
-  std::mt19937 rng(7);
-  data::Dataset ds;
-  auto& info = ds.info_;
-  info.fps = 20;
-  info.skeleton.joint_names = {"Root", "Tip"};
-  info.skeleton.parents = {-1, 0};
-  info.skeleton.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0)};
-  info.layout.form = data::PoseForm::kPositions;
-  info.layout.pose_dim = kDim;
-  info.layout.control_dim = 3;
-  for (int d = 0; d < kDim; ++d) info.layout.pose_names.push_back("p" + std::to_string(d));
-  info.layout.control_names = {"dx_m", "dz_m", "dtheta_rad"};
-  info.window_frames = 16;
-  info.window_hop = 8;
-  info.content_labels = {"walk"};
-  for (int i = 0; i < 6; ++i) ds.train_.push_back(sine_clip(rng, 40));
-  for (int i = 0; i < 2; ++i) ds.val_.push_back(sine_clip(rng, 40));
-  ds.stats_.pose_mean.assign(kDim, 0.0f);
-  ds.stats_.pose_std.assign(kDim, 0.7f);
-  ds.stats_.control_mean = {0.35f, 0.0f, 0.0f};
-  ds.stats_.control_std = {0.1f, 1.0f, 0.01f};
-  return ds;
 }
 
 }  // namespace
@@ -224,15 +179,7 @@ TEST(Rvae, LossFallsOnNoisySinusoids) {
   cfg["input_dropout"] = 0.1;
   auto model = create_model("rvae", cfg, small_context(d));
   torch::optim::Adam opt(model->parameters(), torch::optim::AdamOptions(3e-3));
-  auto make_batch = [&]() {
-    auto phase = torch::rand({b, 1, 1}) * 6.283;
-    auto freq = 0.3 + torch::rand({b, 1, 1}) * 0.2;
-    auto tt = torch::arange(t).reshape({1, t, 1});
-    auto offs = torch::arange(d).reshape({1, 1, d}) * 0.7;
-    auto pose = torch::sin(freq * tt + phase + offs) + 0.05 * torch::randn({b, t, d});
-    auto control = torch::cat({freq.expand({b, t, 1}), torch::zeros({b, t, 2})}, -1);
-    return Batch{pose, control, {}, {}};
-  };
+  auto make_batch = [&]() { return noisy_sinusoid_batch(b, t, d); };
   model->train();
   double first = 0, last = 0, first_recon = 0, last_recon = 0;
   for (int step = 0; step < 150; ++step) {

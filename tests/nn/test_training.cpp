@@ -15,54 +15,15 @@
 #include "nn/run.h"
 #include "nn/sampling.h"
 #include "nn/training/train.h"
+#include "nn_test_util.h"
 
 using namespace mosyn;
 using namespace mosyn::nn;
 namespace fs = std::filesystem;
+using nn::testing::kDim;
+using nn::testing::synthetic_dataset;
 
 namespace {
-
-constexpr int kDim = 6;  // positions of a two-joint skeleton
-
-float d_sign(int t) { return (t / 10) % 2 ? 1.0f : -1.0f; }
-
-data::ClipRecord sine_clip(std::mt19937& rng, int frames) {
-  std::uniform_real_distribution<float> u(0, 6.28f), f(0.2f, 0.5f);
-  std::normal_distribution<float> noise(0, 0.05f);
-  data::ClipRecord c;
-  c.num_frames = frames;
-  const float phase = u(rng), freq = f(rng);
-  for (int t = 0; t < frames; ++t) {
-    for (int d = 0; d < kDim; ++d) c.pose.push_back(std::sin(freq * t + phase + 0.7f * d) + noise(rng));
-    c.control.insert(c.control.end(), {freq, 0.0f, 0.01f * d_sign(t)});
-  }
-  return c;
-}
-
-data::Dataset synthetic_dataset() {
-  std::mt19937 rng(7);
-  data::Dataset ds;
-  auto& info = ds.info_;
-  info.fps = 20;
-  info.skeleton.joint_names = {"Root", "Tip"};
-  info.skeleton.parents = {-1, 0};
-  info.skeleton.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0)};
-  info.layout.form = data::PoseForm::kPositions;
-  info.layout.pose_dim = kDim;
-  info.layout.control_dim = 3;
-  for (int d = 0; d < kDim; ++d) info.layout.pose_names.push_back("p" + std::to_string(d));
-  info.layout.control_names = {"dx_m", "dz_m", "dtheta_rad"};
-  info.window_frames = 16;
-  info.window_hop = 8;
-  info.content_labels = {"walk"};
-  for (int i = 0; i < 6; ++i) ds.train_.push_back(sine_clip(rng, 40));
-  for (int i = 0; i < 2; ++i) ds.val_.push_back(sine_clip(rng, 40));
-  ds.stats_.pose_mean.assign(kDim, 0.0f);
-  ds.stats_.pose_std.assign(kDim, 0.7f);
-  ds.stats_.control_mean = {0.35f, 0.0f, 0.0f};
-  ds.stats_.control_std = {0.1f, 1.0f, 0.01f};
-  return ds;
-}
 
 fs::path temp_dir(const std::string& name) {
   auto p = fs::temp_directory_path() / ("mosyn_nn_" + name + "_" + std::to_string(::getpid()));
