@@ -7,18 +7,14 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "io_test_util.h"
 
 namespace mosyn::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path make_temp_dir(const std::string& name) {
-  fs::path dir = fs::temp_directory_path() / ("mosyn_test_io_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using testing::make_temp_dir;
 
 size_t count_entries(const fs::path& dir) {
   size_t n = 0;

@@ -8,18 +8,14 @@
 
 #include "core/error.h"
 #include "io/atomic_file.h"
+#include "io_test_util.h"
 
 namespace mosyn::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path make_temp_dir(const std::string& name) {
-  fs::path dir = fs::temp_directory_path() / ("mosyn_test_io_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using testing::make_temp_dir;
 
 // A header exactly as NumPy writes it, padded to 64 bytes, followed by data bytes.
 std::string npy_bytes(const std::string& dict, const std::string& data, char major = 1) {
