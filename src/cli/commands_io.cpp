@@ -70,7 +70,7 @@ void run_convert(const ConvertOptions& o) {
     io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));
     return;
   }
-  const double scale = o.metres ? guess_units(clip.skeleton).meters_per_unit : 1.0;
+  const double scale = o.metres ? resolve_meters_per_unit(clip.skeleton) : 1.0;
   const WorldPoses poses = forward_kinematics(clip.skeleton, clip.motion);
   const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
   std::vector<Eigen::Vector3d> positions = poses.positions;

@@ -67,4 +67,9 @@ UnitsGuess guess_units(const Skeleton& skeleton) {
 
 double guess_meters_per_unit(const Skeleton& skeleton) { return guess_units(skeleton).meters_per_unit; }
 
+double resolve_meters_per_unit(const Skeleton& skeleton, double requested) {
+  if (requested > 0) return requested;
+  return skeleton.meters_per_unit != 1.0 ? skeleton.meters_per_unit : guess_meters_per_unit(skeleton);
+}
+
 }  // namespace mosyn

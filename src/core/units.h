@@ -31,4 +31,8 @@ UnitsGuess guess_units(const Skeleton& skeleton);
 // guess_units(skeleton).meters_per_unit.
 double guess_meters_per_unit(const Skeleton& skeleton);
 
+// Metres per skeleton unit to use: `requested` when positive, else the skeleton's own value when
+// it has been set (anything but 1, the value io leaves on parsed files), else the guess.
+double resolve_meters_per_unit(const Skeleton& skeleton, double requested = 0);
+
 }  // namespace mosyn

@@ -228,8 +228,7 @@ std::vector<float> control_from_clip(const Clip& clip_in, double fps, double* st
   clip.motion = remove_tpose(clip.motion, TposeMode::kAuto);
   if (clip.motion.num_frames < 2) throw Error("control: the clip needs at least 2 frames");
   clip.motion = resample(clip.motion, fps);
-  double mpu = clip.skeleton.meters_per_unit;
-  if (mpu == 1.0) mpu = guess_meters_per_unit(clip.skeleton);
+  const double mpu = resolve_meters_per_unit(clip.skeleton);
   const Eigen::Vector3d forward = estimate_forward_in_root(clip.skeleton);
   const GroundTrajectory ground = ground_trajectory(clip.skeleton, clip.motion, 0, forward);
   const std::vector<RootDelta> deltas = root_deltas(clip.skeleton, ground);

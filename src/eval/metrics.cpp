@@ -65,8 +65,7 @@ MotionPositions motion_positions(const Clip& input, double meters_per_unit, cons
   // A placeholder root (Bandai-Namco's joint_Root) is no body part: its "bone" to Hips would vary.
   const Clip clip = data::collapse_static_root(input);
   const Skeleton& s = clip.skeleton;
-  double mpu = meters_per_unit;
-  if (!(mpu > 0)) mpu = s.meters_per_unit != 1.0 ? s.meters_per_unit : guess_meters_per_unit(s);
+  const double mpu = resolve_meters_per_unit(s, meters_per_unit);
   MotionPositions out;
   out.name = name;
   out.fps = clip.motion.fps;

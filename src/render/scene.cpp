@@ -156,8 +156,7 @@ Eigen::Vector3d to_y_up(const Eigen::Vector3d& p, int up_axis) {
 RenderMotion render_motion_from_clip(const Clip& input, Rgb color, double meters_per_unit, const std::string& name) {
   const Clip clip = data::collapse_static_root(input);  // the path then follows the pelvis
   const Skeleton& s = clip.skeleton;
-  double mpu = meters_per_unit;
-  if (!(mpu > 0)) mpu = s.meters_per_unit != 1.0 ? s.meters_per_unit : guess_meters_per_unit(s);
+  const double mpu = resolve_meters_per_unit(s, meters_per_unit);
   RenderMotion m;
   m.name = name;
   m.fps = clip.motion.fps;

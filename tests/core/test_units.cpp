@@ -80,3 +80,12 @@ TEST(Units, RealDataBandaiIsCentimetresCmuIsCmuUnits) {
 
 }  // namespace
 }  // namespace mosyn
+
+TEST(UnitsTest, ResolveMetersPerUnitPrefersRequestThenSkeletonThenGuess) {
+  mosyn::Skeleton s = mosyn::make_synthetic_biped();  // centimetres, meters_per_unit 0.01
+  EXPECT_DOUBLE_EQ(mosyn::resolve_meters_per_unit(s, 0.5), 0.5);
+  EXPECT_DOUBLE_EQ(mosyn::resolve_meters_per_unit(s), 0.01);
+  s.meters_per_unit = 1.0;  // as io leaves a parsed file: guessed from the body size
+  EXPECT_DOUBLE_EQ(mosyn::resolve_meters_per_unit(s), mosyn::guess_meters_per_unit(s));
+  EXPECT_DOUBLE_EQ(mosyn::resolve_meters_per_unit(s), 0.01);
+}
