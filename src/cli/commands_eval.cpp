@@ -296,6 +296,8 @@ struct EvalArgs {
   eval::EvalOptions options;
   std::string foot_joints;
   bool no_prediction = false;
+  bool no_joint_errors = false;
+  std::string error_frames;
 };
 
 void run_eval(EvalArgs a) {
@@ -310,6 +312,24 @@ void run_eval(EvalArgs a) {
     throw UsageError("--foot-joints takes 2 names (left, right heel) or 4 (heels, then toes)");
   o.metrics.foot_joints = feet;
   o.prediction = !a.no_prediction;
+  o.joint_errors = !a.no_joint_errors;
+  if (!a.error_frames.empty()) {
+    o.error_frames.clear();
+    for (const std::string& f : split_commas(a.error_frames)) {
+      size_t used = 0;
+      int value = -1;
+      try {
+        value = std::stoi(f, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != f.size() || value < 0)
+        throw UsageError("--error-frames: '" + f + "' is not a frame number (expected e.g. 70,90,120,160,210)");
+      o.error_frames.push_back(value);
+    }
+  }
+  if (!(o.error_frames_fps > 0)) throw UsageError("--error-fps must be positive");
+  if (o.initial_frames < 1) throw UsageError("--initial-frames must be >= 1");
   o.classifier_dir = a.classifier;
   const data::Dataset dataset = data::Dataset::open(a.data_dir);
   ProgressLine progress;
@@ -479,6 +499,13 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
                     "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
     cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
+    cmd->add_option("--error-frames", a->error_frames,
+                    "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)");
+    cmd->add_option("--error-fps", a->options.error_frames_fps,
+                    "frame rate the --error-frames are counted at; converted by time (default 60, the paper's)");
+    cmd->add_option("--initial-frames", a->options.initial_frames,
+                    "joint errors: real frames observed before the continuation (default 4, the paper's)");
+    cmd->add_flag("--no-joint-errors", a->no_joint_errors, "skip the joint-position errors");
     cmd->add_option("--foot-joints", a->foot_joints,
                     "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
     cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");

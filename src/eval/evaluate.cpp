@@ -74,6 +74,7 @@ nlohmann::json EvalResult::to_json() const {
   j["seed"] = seed;
   j["clips"] = clips;
   j["prediction_windows"] = prediction_windows;
+  j["joint_error_clips"] = joint_error_clips;
   nlohmann::json list = nlohmann::json::array(), map = nlohmann::json::object();
   for (const auto& r : rows) {
     list.push_back({{"key", r.key}, {"label", r.label}, {"model", number_or_null(r.model)}, {"real", number_or_null(r.real)}});
@@ -94,6 +95,7 @@ EvalResult EvalResult::from_json(const nlohmann::json& j) {
     r.seed = j.value("seed", std::uint64_t{0});
     if (j.contains("clips")) r.clips = j.at("clips").get<std::vector<std::string>>();
     r.prediction_windows = j.value("prediction_windows", 0);
+    r.joint_error_clips = j.value("joint_error_clips", 0);
     for (const auto& row : j.at("rows"))
       r.rows.push_back({row.at("key").get<std::string>(), row.at("label").get<std::string>(), number_from(row.at("model")),
                         number_from(row.at("real"))});
@@ -223,8 +225,68 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
                            spectral_entropy_difference(seqs, real_seqs), 0.0});
   }
 
+  // ---- Joint-position errors against the clip itself (Habibie et al. 2017, Tables 1-2).
+  if (o.joint_errors && !o.error_frames.empty()) {
+    if (!(o.error_frames_fps > 0)) throw Error("evaluate: error_frames_fps must be > 0");
+    if (o.initial_frames < 1) throw Error("evaluate: initial_frames must be >= 1");
+    std::vector<int> frames;  // at the dataset's rate
+    for (int f : o.error_frames) {
+      if (f < 0) throw Error("evaluate: error frames must be >= 0");
+      frames.push_back(static_cast<int>(std::lround(f / o.error_frames_fps * info.fps)));
+    }
+    const int last = *std::max_element(frames.begin(), frames.end());
+    if (last < o.initial_frames)
+      throw Error("evaluate: every error frame lies inside the " + std::to_string(o.initial_frames) + " initial frames");
+    const size_t nf = frames.size();
+    // [setting][frame] sums over clips x samples; settings: motion/pose x prior/initial.
+    std::vector<std::vector<double>> sums(4, std::vector<double>(nf, 0.0));
+    int count = 0;
+    auto accumulate = [&](int setting, const Eigen::MatrixXd& sample, const Eigen::MatrixXd& truth) {
+      const auto motion = joint_position_errors_m(sample, truth, frames);
+      const auto pose = joint_position_errors_m(root_relative(sample), root_relative(truth), frames);
+      for (size_t k = 0; k < nf; ++k) {
+        sums[setting][k] += motion[k];
+        sums[setting + 1][k] += pose[k];
+      }
+    };
+    for (size_t i = 0; i < chosen.size(); ++i) {
+      report("joint errors", static_cast<int>(i), static_cast<int>(chosen.size()));
+      const data::ClipRecord& rec = all[chosen[i]];
+      if (rec.num_frames <= last) continue;
+      const Eigen::MatrixXd truth = real[i].sequence();
+      for (const auto& m : samples[i]) accumulate(0, m.sequence(), truth);
+      // Continuations of the first initial_frames real frames.
+      const int p = o.initial_frames;
+      nn::SampleExtras extras;
+      extras.prefix_pose = rows_of(rec.pose, 0, p, d);
+      extras.prefix_control = rows_of(rec.control, 0, p, c);
+      extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
+      extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+      const auto futures = nn::sample_motions(run, rows_of(rec.control, p, rec.num_frames, c), n,
+                                              o.seed + 2000003 + i, o.temperature, extras);
+      for (const auto& f : futures) {
+        std::vector<float> whole = extras.prefix_pose;
+        whole.insert(whole.end(), f.begin(), f.end());
+        accumulate(2, motion_positions(nn::decode_motion(run, whole, rec.control)).sequence(), truth);
+      }
+      ++count;
+    }
+    result.joint_error_clips = count;
+    const char* names[4] = {"motion_prior", "pose_prior", "motion_initial", "pose_initial"};
+    const std::string what[4] = {"motion error, prior sample", "pose error (root-relative), prior sample",
+                                 "motion error, " + std::to_string(o.initial_frames) + " initial frames",
+                                 "pose error (root-relative), " + std::to_string(o.initial_frames) + " initial frames"};
+    for (int s = 0; s < 4; ++s)
+      for (size_t k = 0; k < nf; ++k) {
+        char at[64];
+        std::snprintf(at, sizeof at, " at %.2f s (cm)", o.error_frames[k] / o.error_frames_fps);
+        result.rows.push_back({std::string("joint_error.") + names[s] + ".f" + std::to_string(o.error_frames[k]),
+                               what[s] + at, count > 0 ? 100.0 * sums[s][k] / (count * n) : kNaN, kNaN});
+      }
+  }
+
   // ---- Stochastic prediction from a real prefix, given the true control.
-  if (o.prediction && run.model->supports_streaming()) {
+  if (o.prediction) {
     const int p = static_cast<int>(std::lround(o.prefix_s * info.fps));
     const int h = static_cast<int>(std::lround(o.horizon_s * info.fps));
     if (p < 1 || h < 2) throw Error("evaluate: prefix must be >= 1 frame and horizon >= 2 frames");

@@ -23,8 +23,17 @@ struct EvalOptions {
   double temperature = 1.0;      // latent standard-deviation multiplier
   double warmup_s = 1.0;         // synthesis: standing generated first and dropped (nn SampleExtras)
   bool include_augmented = false;  // also evaluate mirrored / reversed copies in the split
-  // Stochastic prediction (families that can continue a given motion: supports_streaming()):
-  bool prediction = true;        // run it when the family supports it
+  // Joint-position errors against the held-out clip itself (Habibie et al. 2017, Tables 1-2),
+  // at the times of `error_frames` counted at `error_frames_fps` (the paper: frames 70..210 of
+  // 4-s clips at 60 Hz, i.e. 1.17..3.5 s), from a prior sample and from `initial_frames` real
+  // frames, given the clip's true control:
+  bool joint_errors = true;
+  std::vector<int> error_frames = {70, 90, 120, 160, 210};
+  double error_frames_fps = 60.0;
+  int initial_frames = 4;        // the paper's "4 initial frames" (R = 4 for its two poolings)
+  // Stochastic prediction (every family that continues a given motion, i.e. honours
+  // SampleRequest::prefix_pose):
+  bool prediction = true;
   double prefix_s = 1.0;         // observed real motion before the prediction
   double horizon_s = 2.0;        // predicted motion, given the true control
   double multimodal_threshold_m = 0.5;  // MMADE/MMFDE ground-truth grouping (root-relative whole-pose L2, m)
@@ -58,12 +67,14 @@ struct EvalResult {
   std::vector<std::string> clips;      // sources of the evaluated clips, in order
   std::vector<int> clip_indices;       // their indices in dataset.clips(split)
   int prediction_windows = 0;          // 0 when prediction did not run
+  int joint_error_clips = 0;           // clips long enough for the joint errors (0: not run)
   std::vector<EvalRow> rows;
 
   // The row with this key; throws mosyn::Error when absent.
   const EvalRow& row(const std::string& key) const;
   // {"run", "family", "split", "n", "seed", "clips", "prediction_windows",
-  //  "rows": [{"key", "label", "model", "real"}], "metrics": {key: {"model", "real"}}}, NaN as null.
+  //  "joint_error_clips", "rows": [{"key", "label", "model", "real"}], "metrics": {key: {"model",
+//  "real"}}}, NaN as null.
   nlohmann::json to_json() const;
   // Reads what to_json wrote (for `mosyn report`). Throws mosyn::Error when malformed.
   static EvalResult from_json(const nlohmann::json& j);
@@ -77,6 +88,13 @@ struct EvalResult {
 //   "diversity.mean_pose_distance_m" DFN's distance to the per-frame mean pose across them, each
 //   averaged over clips (real: n/a, one motion per control);
 // - "fse" spectral entropy of all samples minus that of the real clips (real: 0);
+// - with joint_errors, for each error frame f (key suffix "f<f>", label with the time in s):
+//   "joint_error.motion_prior.f<f>" mean joint-position error (cm) of the samples above against
+//   the clip's own motion at that time (world positions: the root follows the same control, so
+//   this includes the root's height and offsets); "joint_error.pose_prior.f<f>" the same with
+//   positions relative to the pelvis (translation and rotation removed); and "motion_initial" /
+//   "pose_initial" for samples that continue the clip's first initial_frames frames. Averaged
+//   over the N samples and the clips covering the latest time (real: n/a);
 // - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse"
 //   (evaluate_predictions on joint positions relative to the pelvis, joint 0; real: n/a) over
 //   clips with prefix + horizon frames;

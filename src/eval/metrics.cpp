@@ -333,6 +333,25 @@ double final_displacement_error(const std::vector<Eigen::MatrixXd>& samples, con
   return best;
 }
 
+std::vector<double> joint_position_errors_m(const Eigen::MatrixXd& sample, const Eigen::MatrixXd& ground_truth,
+                                            const std::vector<int>& frames) {
+  if (sample.cols() != ground_truth.cols() || sample.cols() % 3 != 0 || sample.cols() == 0)
+    throw Error("joint-position error: sequences of " + std::to_string(sample.cols()) + " and " +
+                std::to_string(ground_truth.cols()) + " columns; expected equal, non-zero multiples of 3");
+  const Eigen::Index joints = sample.cols() / 3;
+  std::vector<double> errors;
+  for (int f : frames) {
+    if (f < 0 || f >= sample.rows() || f >= ground_truth.rows())
+      throw Error("joint-position error: frame " + std::to_string(f) + " is outside sequences of " +
+                  std::to_string(sample.rows()) + " and " + std::to_string(ground_truth.rows()) + " frames");
+    double sum = 0;
+    for (Eigen::Index j = 0; j < joints; ++j)
+      sum += (sample.row(f).segment(3 * j, 3) - ground_truth.row(f).segment(3 * j, 3)).norm();
+    errors.push_back(sum / static_cast<double>(joints));
+  }
+  return errors;
+}
+
 std::vector<std::vector<int>> multimodal_ground_truth(const Eigen::MatrixXd& last_context_poses, double threshold_m) {
   const Eigen::Index n = last_context_poses.rows();
   std::vector<std::vector<int>> out(n);

@@ -160,6 +160,14 @@ double average_displacement_error(const std::vector<Eigen::MatrixXd>& samples, c
 // min over samples k of ||X_k[T-1] - Y[T-1]||.
 double final_displacement_error(const std::vector<Eigen::MatrixXd>& samples, const Eigen::MatrixXd& ground_truth);
 
+// Joint-position error at given frames (Habibie et al. 2017, Tables 1-2): for each frame f in
+// `frames`, the mean over joints j of the Euclidean distance |X[f, j] - Y[f, j]| in metres, where
+// X and Y are sequence matrices [T, J * 3] of equal width (row counts may differ; every frame must
+// be a row of both). Returns one value per requested frame, in order. Throws mosyn::Error on a
+// width mismatch, a width not a multiple of 3 or a frame out of range.
+std::vector<double> joint_position_errors_m(const Eigen::MatrixXd& sample, const Eigen::MatrixXd& ground_truth,
+                                            const std::vector<int>& frames);
+
 // Multi-modal ground truth: for each window i, the indices j (i included, ascending) of windows
 // whose last context pose lies within threshold_m of window i's: ||c_j - c_i|| <= threshold_m.
 // last_context_poses is [N, D], one row per window.

@@ -39,16 +39,19 @@ std::string* CliReportTest::root_ = nullptr;
 TEST_F(CliReportTest, EvalThenReport) {
   const std::string metrics = *root_ + "/run/metrics.json";
   const auto e = run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 2 --max-clips 2 --seed 3 --prefix 0.5 "
-                           "--horizon 1 --threads 1 --classifier " + *root_ + "/cls --out " + metrics);
+                           "--horizon 1 --error-frames 20,60 --threads 1 --classifier " + *root_ + "/cls --out " + metrics);
   ASSERT_EQ(e.exit_code, 0) << e.err;
   EXPECT_THAT(e.out, HasSubstr("| metric | model | real data |"));
   EXPECT_THAT(e.out, HasSubstr("prediction ADE (m)"));
   EXPECT_THAT(e.out, HasSubstr("Inception score"));
+  EXPECT_THAT(e.out, HasSubstr("pose error (root-relative), 4 initial frames at 1.00 s (cm)"));
   const nlohmann::json j = io::read_json(metrics);
   EXPECT_EQ(j["n"], 2);
   EXPECT_EQ(j["clips"].size(), 2u);
   EXPECT_TRUE(j["metrics"]["bone_length_rmse_cm"]["model"].is_number());
   EXPECT_TRUE(j["metrics"]["classifier.fid"]["model"].is_number());
+  EXPECT_TRUE(j["metrics"]["joint_error.motion_prior.f60"]["model"].is_number());
+  EXPECT_EQ(j["joint_error_clips"], 2);
 
   // The run's metrics.json is picked up without --metrics; samples are drawn by report itself.
   const std::string page = *root_ + "/report.html";
@@ -97,6 +100,10 @@ TEST(CliReport, ErrorsAndExitCodes) {
   EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --split test").exit_code, 2);
   EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --n 0").exit_code, 2);
   EXPECT_EQ(run_mosyn("eval " + dir + "/run").exit_code, 2);  // --data is required
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --error-frames 70,x").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --error-frames=-3").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --error-fps 0").exit_code, 2);
+  EXPECT_EQ(run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --initial-frames 0").exit_code, 2);
   const auto missing = run_mosyn("eval " + dir + "/run --data " + dir + "/dataset --threads 1");
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_THAT(missing.err, HasSubstr(dir + "/dataset"));

@@ -1,6 +1,6 @@
-// eval::evaluate on a tiny synthetic dataset with a tiny MoGlow run and a tiny classifier trained
-// here for a few steps: every metric present and finite, the real-data column equal to the
-// metrics computed directly on the decoded held-out clips; the report page.
+// eval::evaluate on a tiny synthetic dataset with a tiny MoGlow run, a tiny recurrent VAE and a
+// tiny classifier trained here for a few steps: every metric present and finite, the real-data
+// column equal to the metrics computed directly on the decoded held-out clips; the report page.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <torch/utils.h>
@@ -51,6 +51,13 @@ class EvaluateTest : public ::testing::Test {
     o.checkpoint_every = 3;
     nn::train(o, *dataset_);
 
+    nn::TrainOptions v = o;
+    v.family = "rvae";
+    v.out_dir = (*root_ / "rvae").string();
+    v.model_config = {{"encoder_channels", {8, 8}}, {"control_channels", {4, 4}}, {"decoder_channels", {8}},
+                      {"latent", 4}, {"kernel", 3}};
+    nn::train(v, *dataset_);
+
     nn::TrainOptions c = o;
     c.family = "classifier";
     c.out_dir = (*root_ / "classifier").string();
@@ -66,6 +73,7 @@ class EvaluateTest : public ::testing::Test {
     e.seed = 5;
     e.prefix_s = 0.5;
     e.horizon_s = 1.0;
+    e.error_frames = {20, 60, 120};  // 0.33, 1, 2 s: frames 10, 30, 60 of the 90-frame clips
     e.classifier_dir = (*root_ / "classifier").string();
     e.threads = 1;
     result_ = new eval::EvalResult(eval::evaluate((*root_ / "run").string(), *dataset_, e,
@@ -100,7 +108,8 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
        {"motions", "frames", "footsteps.max_steps", "foot_skating_ratio", "bone_length_rmse_cm", "spectral_entropy",
         "apd_m", "mean_pose_distance_m", "diversity.apd_m", "diversity.mean_pose_distance_m", "fse",
         "prediction.apd_m", "prediction.ade_m", "prediction.fde_m", "prediction.mmade_m", "prediction.mmfde_m",
-        "prediction.fse", "classifier.content_acc", "classifier.style_acc", "classifier.is", "classifier.fid"}) {
+        "prediction.fse", "joint_error.motion_prior.f20", "joint_error.pose_prior.f120",
+        "joint_error.motion_initial.f60", "joint_error.pose_initial.f20", "classifier.content_acc", "classifier.style_acc", "classifier.is", "classifier.fid"}) {
     SCOPED_TRACE(key);
     ASSERT_NO_THROW(r.row(key));
     EXPECT_TRUE(std::isfinite(r.row(key).model));
@@ -115,6 +124,49 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
   EXPECT_GE(r.row("classifier.is").model, 1.0 - 1e-9);
   EXPECT_EQ(r.row("motions").model, 4.0);  // one replicate set per sample index, as many motions as clips
   EXPECT_EQ(r.row("motions").real, 4.0);
+  EXPECT_EQ(r.joint_error_clips, 4);
+  EXPECT_TRUE(std::isnan(r.row("joint_error.motion_prior.f60").real));
+  for (const char* setting : {"motion_prior", "pose_prior", "motion_initial", "pose_initial"})
+    for (int f : {20, 60, 120}) EXPECT_GT(r.row(std::string("joint_error.") + setting + ".f" + std::to_string(f)).model, 0.0);
+  EXPECT_THAT(r.row("joint_error.pose_initial.f120").label, HasSubstr("4 initial frames at 2.00 s (cm)"));
+}
+
+TEST_F(EvaluateTest, JointErrorsNeedLongEnoughClips) {
+  eval::EvalOptions e;
+  e.num_samples = 1;
+  e.max_clips = 2;
+  e.prediction = false;
+  e.threads = 1;
+  e.error_frames = {70, 400};  // 400 @ 60 Hz = frame 200 of 90-frame clips: no clip qualifies
+  const auto r = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  EXPECT_EQ(r.joint_error_clips, 0);
+  EXPECT_TRUE(std::isnan(r.row("joint_error.motion_prior.f70").model));
+  e.error_frames = {2};  // frame 1 lies inside the 4 initial frames
+  EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e), Error);
+  e.joint_errors = false;
+  EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e).row("joint_error.motion_prior.f2"), Error);
+}
+
+// The recurrent VAE is not streaming, yet continues a prefix: the same protocol runs without a
+// family special case, prediction included.
+TEST_F(EvaluateTest, RecurrentVaeIsEvaluatedTheSameWay) {
+  eval::EvalOptions e;
+  e.num_samples = 2;
+  e.max_clips = 2;
+  e.prefix_s = 0.5;
+  e.horizon_s = 1.0;
+  e.warmup_s = 0;
+  e.error_frames = {20, 120};
+  e.threads = 1;
+  const auto r = eval::evaluate((*root_ / "rvae").string(), *dataset_, e);
+  EXPECT_EQ(r.family, "rvae");
+  EXPECT_EQ(r.prediction_windows, 2);
+  EXPECT_EQ(r.joint_error_clips, 2);
+  for (const char* key : {"foot_skating_ratio", "diversity.apd_m", "prediction.ade_m", "joint_error.motion_prior.f20",
+                          "joint_error.pose_initial.f120"}) {
+    SCOPED_TRACE(key);
+    EXPECT_TRUE(std::isfinite(r.row(key).model));
+  }
 }
 
 TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {

@@ -190,6 +190,26 @@ TEST(PredictionTest, AdeFdeOfKnownOffsets) {
   EXPECT_THROW(average_displacement_error({Eigen::MatrixXd::Zero(3, 3)}, gt), Error);
 }
 
+TEST(PredictionTest, JointPositionErrorsByHand) {
+  // Two joints, three frames; the sample is offset per joint and frame by known vectors.
+  const Eigen::MatrixXd gt = Eigen::MatrixXd::Random(3, 6);
+  Eigen::MatrixXd s = gt;
+  s.row(1).segment(0, 3) += Eigen::Vector3d(3, 4, 0).transpose();   // joint 0: 5 m
+  s.row(1).segment(3, 3) += Eigen::Vector3d(0, 0, 1).transpose();   // joint 1: 1 m
+  s.row(2).segment(3, 3) += Eigen::Vector3d(2, 0, 0).transpose();   // joint 1: 2 m
+  const auto e = joint_position_errors_m(s, gt, {2, 0, 1});
+  ASSERT_EQ(e.size(), 3u);
+  EXPECT_NEAR(e[0], 1.0, 1e-12);  // (0 + 2) / 2
+  EXPECT_NEAR(e[1], 0.0, 1e-12);
+  EXPECT_NEAR(e[2], 3.0, 1e-12);  // (5 + 1) / 2
+  // Only the requested frames must exist in both sequences.
+  EXPECT_NEAR(joint_position_errors_m(s.topRows(2), gt, {1})[0], 3.0, 1e-12);
+  EXPECT_THROW(joint_position_errors_m(s, gt, {3}), Error);
+  EXPECT_THROW(joint_position_errors_m(s.topRows(2), gt, {2}), Error);
+  EXPECT_THROW(joint_position_errors_m(s.leftCols(5), gt.leftCols(5), {0}), Error);
+  EXPECT_THROW(joint_position_errors_m(s, gt.leftCols(3), {0}), Error);
+}
+
 TEST(PredictionTest, EvaluatePredictionsOverWindows) {
   // Two windows with the same last context pose (one multi-modal group), one far away.
   const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(3, 2);

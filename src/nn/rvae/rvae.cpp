@@ -55,6 +55,10 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
     else if (k == "kl_weight") o.kl_weight = get_double(config, "kl_weight");
     else if (k == "kl_anneal") o.kl_anneal = get_double(config, "kl_anneal");
     else if (k == "l1") o.l1 = get_double(config, "l1");
+    else if (k == "test_latents") {
+      if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
+      o.test_latents = it.value().get<std::string>();
+    }
     else throw Error("rvae config: unknown key '" + k + "'");
   }
   if (o.encoder_channels.empty() || o.encoder_channels.size() > 8)
@@ -69,6 +73,8 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   if (!(o.kl_weight >= 0)) throw Error("rvae config: kl_weight must be >= 0");
   if (!(o.kl_anneal >= 0 && o.kl_anneal <= 1)) throw Error("rvae config: kl_anneal must be in [0, 1]");
   if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
+  if (o.test_latents != "first" && o.test_latents != "every_step")
+    throw Error("rvae config: test_latents must be \"first\" or \"every_step\", not \"" + o.test_latents + "\"");
   return o;
 }
 
@@ -81,7 +87,8 @@ nlohmann::json RvaeOptions::to_json() const {
           {"input_dropout", input_dropout},
           {"kl_weight", kl_weight},
           {"kl_anneal", kl_anneal},
-          {"l1", l1}};
+          {"l1", l1},
+          {"test_latents", test_latents}};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -288,6 +295,10 @@ torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
     latents = (request.temperature * torch::randn({b, 1, z}, gen, cpu)).to(opts.device());
   }
   auto hc = encode_control(control);
+  if (options_.test_latents == "every_step" && hc.size(1) > latents.size(1)) {
+    auto rest = request.temperature * torch::randn({b, hc.size(1) - latents.size(1), z}, gen, cpu);
+    latents = torch::cat({latents, rest.to(opts.device())}, 1);
+  }
   auto x = decode_canvas(run_decoder(hc, latents));
   return x.narrow(1, p, t).contiguous();
 }

@@ -43,6 +43,11 @@ struct RvaeOptions {
   double kl_anneal = 0.0;      // fraction of the training steps over which the KL weight ramps
                                // linearly from 0 to kl_weight (0 = no annealing, as the paper)
   double l1 = 0.0;             // L1 penalty on the weights (sum |w| x l1, added to "loss")
+  // Latents at generation time (training always sets every step's state to a latent):
+  // "first" = one latent for the first reduced step, then the cell runs freely (Algorithm 1);
+  // "every_step" = a fresh prior latent sets the state of every step after the prefix (the
+  // alternative the paper reports works equally well, Sec. 3.4). Changing it needs no retraining.
+  std::string test_latents = "first";
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -104,8 +109,9 @@ class RvaeImpl : public MotionModel {
   // control [B, T, C], any T >= 1. Without prefix_pose: z_1 ~ N(0, temperature^2 I) (prior,
   // the paper's Algorithm 1). With prefix_pose [B, P, D] (and prefix_control [B, P, C], zeros =
   // mean control when undefined): the prefix is encoded, its K = ceil(P / R) reduced steps take
-  // z_k = mu_k + temperature sigma_k eps (teacher_latent), the remaining steps run freely, and
-  // the P prefix frames are cropped from the output. Returns [B, T, D].
+  // z_k = mu_k + temperature sigma_k eps (teacher_latent), and the P prefix frames are cropped
+  // from the output. The remaining steps run freely (test_latents "first") or each take a fresh
+  // z ~ N(0, temperature^2 I) in teacher mode ("every_step"). Returns [B, T, D].
   torch::Tensor sample(const SampleRequest& request) override;
 
   struct Posterior {
