@@ -12,7 +12,9 @@
 #include "core/error.h"
 #include "core/kinematics.h"
 #include "data/control.h"
+#include "data/augment.h"
 #include "data/dataset.h"
+#include "data/prepare.h"
 #include "io/atomic_file.h"
 #include "io/bvh.h"
 #include "io/json_file.h"
@@ -127,6 +129,9 @@ struct SampleArgs {
   double warmup_s = 1.0;
   int threads = 0;
   std::string content, style;
+  std::string continue_file;  // --continue: observed motion to continue
+  double observed_s = 1.0;
+  int observed_frames = -1;
 };
 
 int label_index(const std::vector<std::string>& vocabulary, const std::string& label, const char* what) {
@@ -147,11 +152,38 @@ void run_sample(const SampleArgs& a) {
   if (!(a.speed_mps > 0)) throw UsageError("--speed must be positive");
   if (a.warmup_s < 0 || a.warmup_s > 60) throw UsageError("--warmup must be in [0, 60] seconds");
 
+  if (!(a.observed_s > 0) || a.observed_s > 3600) throw UsageError("--observed must be in (0, 3600] seconds");
+  if (a.observed_frames == 0 || a.observed_frames < -1) throw UsageError("--observed-frames must be >= 1");
+
   nn::LoadOptions load;
   load.checkpoint = a.checkpoint;
   load.threads = a.threads;
   const nn::LoadedRun run = nn::load_run(a.run_dir, load);
   const double fps = run.dataset.fps;
+
+  // --continue: the observed frames of a motion on the run's skeleton, as raw features.
+  std::vector<float> observed_pose, observed_control, own_rest_control;
+  int observed = 0;
+  Eigen::Vector3d start_position = Eigen::Vector3d::Zero();
+  double observed_heading = 0;
+  if (!a.continue_file.empty()) {
+    const Clip clip = io::to_clip(io::read_bvh(a.continue_file));
+    std::vector<float> pose, control;
+    data::encode_clip_for_dataset(run.dataset, clip, a.continue_file, &pose, &control);
+    const int frames = static_cast<int>(control.size() / 3);
+    observed = a.observed_frames > 0 ? a.observed_frames : static_cast<int>(std::lround(a.observed_s * fps));
+    observed = std::max(observed, 1);
+    if (observed > frames)
+      throw Error(a.continue_file + ": " + std::to_string(frames) + " frames at the model's " + std::to_string(fps) +
+                  " fps, fewer than the " + std::to_string(observed) + " observed frames asked for");
+    const size_t d = static_cast<size_t>(run.context.pose_dim);
+    observed_pose.assign(pose.begin(), pose.begin() + observed * d);
+    observed_control.assign(control.begin(), control.begin() + observed * 3);
+    own_rest_control.assign(control.begin() + observed * 3, control.end());
+    // Output in the file's own world placement: its start heading and floor position.
+    data::control_from_clip(clip, fps, &observed_heading);
+    start_position = data::collapse_static_root(clip).motion.translation(0, 0);
+  }
 
   // The control signal, raw [T, 3].
   std::vector<float> control;
@@ -172,6 +204,12 @@ void run_sample(const SampleArgs& a) {
     control = clips[a.clip].control;
     control_desc = {{"kind", "dataset"}, {"dataset", a.data_dir}, {"split", a.split}, {"clip", a.clip},
                     {"source", clips[a.clip].source}};
+  } else if (!a.continue_file.empty() && a.path.empty()) {
+    control = own_rest_control;  // the rest of the observed file's own root motion
+    control_desc = {{"kind", "file"}, {"file", a.continue_file}, {"from_frame", observed}};
+    if (control.size() < 6 && a.seconds <= 0)
+      throw UsageError(a.continue_file + " has no frames after the " + std::to_string(observed) +
+                       " observed ones: give --path, --control or --seconds for the continuation");
   } else {
     data::PathOptions po;
     po.speed_mps = a.speed_mps;
@@ -195,15 +233,23 @@ void run_sample(const SampleArgs& a) {
   nn::SampleExtras extras;
   extras.content = label_index(run.dataset.content_labels, a.content, "content label");
   extras.style = label_index(run.dataset.style_labels, a.style, "style label");
-  extras.warmup_frames = static_cast<int>(std::lround(a.warmup_s * fps));
-  const auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
+  extras.warmup_frames = observed > 0 ? 0 : static_cast<int>(std::lround(a.warmup_s * fps));
+  extras.prefix_pose = observed_pose;
+  extras.prefix_control = observed_control;
+  auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
+  if (observed > 0) {  // written out as observed + continuation
+    for (auto& p : poses) p.insert(p.begin(), observed_pose.begin(), observed_pose.end());
+    control.insert(control.begin(), observed_control.begin(), observed_control.end());
+    start_heading = observed_heading;
+  }
+  const int total_frames = static_cast<int>(control.size() / 3);
 
   std::filesystem::create_directories(a.out_dir);
   for (int i = 0; i < a.n; ++i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
-    Clip clip = data::decode_features(run.dataset, poses[i].data(), control.data(), num_frames, Eigen::Vector3d::Zero(),
+    Clip clip = data::decode_features(run.dataset, poses[i].data(), control.data(), total_frames, start_position,
                                       start_heading);
     io::write_bvh(base + ".bvh", io::from_clip(clip));
     if (a.positions) {
@@ -212,7 +258,7 @@ void run_sample(const SampleArgs& a) {
       values.reserve(world.positions.size() * 3);
       for (const auto& p : world.positions)
         for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k] * clip.skeleton.meters_per_unit));
-      io::write_npy(base + ".npy", {num_frames, clip.skeleton.num_joints(), 3}, values);
+      io::write_npy(base + ".npy", {total_frames, clip.skeleton.num_joints(), 3}, values);
     }
     nlohmann::json sidecar = {{"model", {{"run_dir", a.run_dir}, {"family", run.family}, {"step", run.step},
                                          {"checkpoint", a.checkpoint}}},
@@ -221,15 +267,18 @@ void run_sample(const SampleArgs& a) {
                               {"num_samples", a.n},
                               {"temperature", a.temperature},
                               {"fps", fps},
-                              {"frames", num_frames},
+                              {"frames", total_frames},
                               {"control", control_desc},
+                              {"continued", a.continue_file.empty()
+                                                ? nlohmann::json(nullptr)
+                                                : nlohmann::json{{"file", a.continue_file}, {"observed_frames", observed}}},
                               {"content", a.content},
                               {"style", a.style},
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
     io::write_json(base + ".json", sidecar);
   }
-  std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s) to %s\n", a.n, num_frames, (num_frames - 1) / fps,
-               a.out_dir.c_str());
+  std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s%s) to %s\n", a.n, total_frames, (total_frames - 1) / fps,
+               observed > 0 ? (", the first " + std::to_string(observed) + " observed").c_str() : "", a.out_dir.c_str());
 }
 
 // A run directory without optimiser state: what ships under models/.
@@ -311,6 +360,12 @@ void add_model_commands(CLI::App& app, Action* action) {
   sample->add_option("--style", s->style, "style label, for label-conditioned families");
   sample->add_option("--checkpoint", s->checkpoint, "checkpoint file in the run directory (e.g. best.pt)")
       ->capture_default_str();
+  sample->add_option("--continue", s->continue_file,
+                     "BVH on the run's skeleton to continue: its first --observed seconds are kept and the motion "
+                     "goes on along --path/--control (default: the rest of the file's own root motion)");
+  sample->add_option("--observed", s->observed_s, "--continue: seconds of the file observed")->capture_default_str();
+  sample->add_option("--observed-frames", s->observed_frames,
+                     "--continue: frames of the file observed (overrides --observed; e.g. 4 as Habibie et al.)");
   sample->add_option("--prefix", s->prefix, "output file name prefix")->capture_default_str();
   sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
   sample->callback([action, s] { *action = [s] { run_sample(*s); }; });

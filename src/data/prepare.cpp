@@ -89,6 +89,35 @@ std::string topology_difference(const Skeleton& expected, const Skeleton& got) {
   return "";
 }
 
+// The per-file steps: placeholder root folded, joint subset, T-pose removal, resampling (fps 0 =
+// keep). Errors are prefixed with name.
+Clip clean_clip(const Clip& raw, const std::string& name, const std::vector<std::string>& drop_patterns,
+                const std::vector<std::string>& keep_patterns, TposeMode tpose, double fps) {
+  Clip clip = collapse_static_root(raw);
+  try {
+    clip = subset_by_patterns(clip, drop_patterns, keep_patterns);
+  } catch (const Error& e) {
+    throw Error(name + ": " + e.what());
+  }
+  clip.motion = remove_tpose(clip.motion, tpose);
+  if (fps > 0) clip.motion = resample(clip.motion, fps);
+  return clip;
+}
+
+// Error text when a bone of `got` is more than kMaxBoneLengthDeviation off `mean`, else "".
+std::string bone_length_difference(const Skeleton& mean, const Skeleton& got) {
+  double size = 0;
+  for (const Eigen::Vector3d& v : mean.offsets) size += v.norm();
+  for (int j = 1; j < mean.num_joints(); ++j) {
+    const double expected = mean.offsets[j].norm(), len = got.offsets[j].norm();
+    if (std::abs(len - expected) > kMaxBoneLengthDeviation * expected + 1e-6 * size)
+      return "bone to '" + mean.joint_names[j] + "' is " + std::to_string(len) + " units long, the dataset mean is " +
+             std::to_string(expected) + " (more than " + std::to_string(static_cast<int>(kMaxBoneLengthDeviation * 100)) +
+             "% off: a different skeleton or unit?)";
+  }
+  return "";
+}
+
 void check_options(const PrepareOptions& o) {
   if (o.input_dirs.empty()) throw Error("prepare: no input folder given");
   if (o.output_dir.empty()) throw Error("prepare: no output folder given");
@@ -208,15 +237,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
     const io::BvhFile bvh = io::read_bvh(items[i].path);
     Clip clip = io::to_clip(bvh);
     if (i == 0) raw_joint_names = clip.skeleton.joint_names;
-    clip = collapse_static_root(clip);
-    try {
-      clip = subset_by_patterns(clip, o.drop_joint_patterns, o.keep_joint_patterns);
-    } catch (const Error& e) {
-      throw Error(items[i].path + ": " + e.what());
-    }
-    clip.motion = remove_tpose(clip.motion, o.tpose);
-    if (o.fps > 0) clip.motion = resample(clip.motion, o.fps);
-    clips[i] = std::move(clip);
+    clips[i] = clean_clip(clip, items[i].path, o.drop_joint_patterns, o.keep_joint_patterns, o.tpose, o.fps);
     report("parse", items[i].source);
   });
 
@@ -244,17 +265,10 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
     for (const Clip& c : clips) sum += c.skeleton.end_sites[e].offset;
     skeleton.end_sites[e].offset = sum / n;
   }
-  double size = 0;
-  for (const Eigen::Vector3d& v : skeleton.offsets) size += v.norm();
-  for (int i = 0; i < n; ++i)
-    for (int j = 1; j < skeleton.num_joints(); ++j) {
-      const double mean = skeleton.offsets[j].norm(), len = clips[i].skeleton.offsets[j].norm();
-      if (std::abs(len - mean) > kMaxBoneLengthDeviation * mean + 1e-6 * size)
-        throw Error(items[i].path + ": bone to '" + skeleton.joint_names[j] + "' is " + std::to_string(len) +
-                    " units long, the dataset mean is " + std::to_string(mean) + " (more than " +
-                    std::to_string(static_cast<int>(kMaxBoneLengthDeviation * 100)) +
-                    "% off: a different skeleton or unit?)");
-    }
+  for (int i = 0; i < n; ++i) {
+    const std::string diff = bone_length_difference(skeleton, clips[i].skeleton);
+    if (!diff.empty()) throw Error(items[i].path + ": " + diff);
+  }
   skeleton.meters_per_unit = o.meters_per_unit > 0 ? o.meters_per_unit : guess_meters_per_unit(skeleton);
   for (Clip& c : clips) c.skeleton.meters_per_unit = skeleton.meters_per_unit;
 
@@ -338,6 +352,20 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
     progress(p);
   }
   return info;
+}
+
+void encode_clip_for_dataset(const DatasetInfo& info, const Clip& raw, const std::string& name,
+                             std::vector<float>* pose, std::vector<float>* control) {
+  Clip clip = clean_clip(raw, name, info.drop_joint_patterns, info.keep_joint_patterns, parse_tpose_mode(info.tpose),
+                         info.fps);
+  std::string diff = topology_difference(info.skeleton, clip.skeleton);
+  if (diff.empty()) diff = bone_length_difference(info.skeleton, clip.skeleton);
+  if (!diff.empty())
+    throw Error(name + ": skeleton differs from the model's dataset: " + diff +
+                " (the motion must use the skeleton the model was trained on)");
+  if (clip.motion.num_frames < 1) throw Error(name + ": no frames");
+  clip.skeleton.meters_per_unit = info.skeleton.meters_per_unit;
+  encode(clip.skeleton, clip.motion, info.layout, pose, control);
 }
 
 void write_synthetic_source(const std::string& dir, int takes_per_label, int num_frames, std::uint64_t seed) {

@@ -65,6 +65,16 @@ using PrepareProgressCallback = std::function<void(const PrepareProgress&)>;
 // filtering, an existing dataset without overwrite. Nothing is written when it throws.
 DatasetInfo prepare_dataset(const PrepareOptions& options, const PrepareProgressCallback& progress = {});
 
+// Features of one more motion for an existing dataset (e.g. a user's BVH to continue with a model
+// trained on it): the clip goes through the same per-file steps as at prepare time (placeholder
+// root folded, the dataset's joint patterns, T-pose removal in the dataset's mode, resampled to
+// info.fps), takes the dataset's units and is encoded with info.layout on its own offsets. Writes
+// raw pose [T, pose_dim] and control [T, control_dim] row-major. Throws mosyn::Error prefixed
+// with `name` (e.g. the file path) when its hierarchy differs from the dataset skeleton's or a
+// bone is more than kMaxBoneLengthDeviation off.
+void encode_clip_for_dataset(const DatasetInfo& info, const Clip& clip, const std::string& name,
+                             std::vector<float>* pose, std::vector<float>* control);
+
 // Writes a small Bandai-Namco-like source folder of synthetic walks (core/synthetic.h) for tests
 // and demos: <dir>/cfg/content_label.txt ("dataset-9_walk", "dataset-9_walk-turn-left",
 // "dataset-9_walk-turn-right", "dataset-9_run"), cfg/style_label.txt ("dataset-9_normal",

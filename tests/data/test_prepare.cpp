@@ -185,6 +185,36 @@ TEST(Prepare, PositionsFormFiltersJointsAndResample) {
   fs::remove_all(out);
 }
 
+// One more file encoded for an existing dataset gives exactly its record from prepare time: same
+// cleaning (joint patterns, resampling), units and layout.
+TEST(Prepare, EncodeClipForDatasetMatchesPreparedRecord) {
+  const fs::path out = temp_path("more");
+  fs::remove_all(out);
+  PrepareOptions o = basic_options(out.string());
+  o.form = PoseForm::kPositions;
+  o.drop_joint_patterns = {"Hand_*"};
+  o.fps = 15;
+  prepare_dataset(o);
+  const Dataset d = Dataset::open(out.string());
+  const ClipRecord& rec = d.clips("train").at(0);
+  const std::string file = synthetic_source() + "/" + rec.source;
+  std::vector<float> pose, control;
+  encode_clip_for_dataset(d.info(), io::to_clip(io::read_bvh(file)), file, &pose, &control);
+  ASSERT_EQ(pose.size(), rec.pose.size());
+  ASSERT_EQ(control.size(), rec.control.size());
+  for (size_t i = 0; i < pose.size(); ++i) ASSERT_FLOAT_EQ(pose[i], rec.pose[i]) << i;
+  for (size_t i = 0; i < control.size(); ++i) ASSERT_FLOAT_EQ(control[i], rec.control[i]) << i;
+  // Another hierarchy (one toe fewer; the hands are dropped by the dataset's patterns) is refused.
+  Clip other = subset_by_patterns(io::to_clip(io::read_bvh(file)), {"Toes_L"}, {});
+  try {
+    encode_clip_for_dataset(d.info(), other, "other.bvh", &pose, &control);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("other.bvh: skeleton differs"), std::string::npos) << e.what();
+  }
+  fs::remove_all(out);
+}
+
 TEST(Prepare, RejectsMismatchedSkeletonAndBadOptions) {
   const fs::path src = temp_path("src");
   const fs::path out = temp_path("out");
