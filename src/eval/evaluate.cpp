@@ -8,6 +8,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "data/prepare.h"
 #include "nn/classifier/classify.h"
 #include "nn/model.h"
 #include "nn/sampling.h"
@@ -336,9 +337,21 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     if (std::filesystem::exists(std::filesystem::path(o.classifier_dir) / "best.pt")) lo.checkpoint = "best.pt";
     const nn::LoadedRun cls = nn::load_run(o.classifier_dir, lo);
     if (cls.family != "classifier") throw Error(o.classifier_dir + ": not a classifier run (family '" + cls.family + "')");
-    if (cls.context.pose_dim != d || cls.context.control_dim != c)
-      throw Error(o.classifier_dir + ": the classifier was trained on other features (pose_dim " +
-                  std::to_string(cls.context.pose_dim) + ", the data has " + std::to_string(d) + ")");
+    // Another feature form (e.g. a joint-position model scored by a joint-rotation classifier):
+    // every motion is decoded to a clip and encoded as the classifier's data, so one classifier
+    // scores every family. Same form: the features as they are.
+    const bool same_features = data::layout_to_json(cls.dataset.layout) == data::layout_to_json(info.layout);
+    auto to_classifier = [&](const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
+                             std::vector<float>* pose_out, std::vector<float>* control_out) {
+      if (same_features) {
+        *pose_out = pose;
+        *control_out = control;
+        return;
+      }
+      const int frames = static_cast<int>(control.size()) / c;
+      data::encode_clip_for_dataset(cls.dataset, data::decode_features(info, pose.data(), control.data(), frames), name,
+                                    pose_out, control_out);
+    };
     std::vector<std::vector<float>> poses, controls, real_poses, real_controls;
     std::vector<int> content, style;  // classifier label ids per sample / real clip
     std::vector<int> real_content, real_style;
@@ -346,14 +359,17 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
       const data::ClipRecord& rec = all[chosen[i]];
       const int ci = label_for_run(rec.content, info.content_labels, cls.dataset.content_labels);
       const int si = label_for_run(rec.style, info.style_labels, cls.dataset.style_labels);
+      std::vector<float> pose, control;
       for (int k = 0; k < n; ++k) {
-        poses.push_back(sample_poses[i][k]);
-        controls.push_back(rec.control);
+        to_classifier(sample_poses[i][k], rec.control, rec.source + " sample " + std::to_string(k), &pose, &control);
+        poses.push_back(pose);
+        controls.push_back(control);
         content.push_back(ci);
         style.push_back(si);
       }
-      real_poses.push_back(rec.pose);
-      real_controls.push_back(rec.control);
+      to_classifier(rec.pose, rec.control, rec.source, &pose, &control);
+      real_poses.push_back(pose);
+      real_controls.push_back(control);
       real_content.push_back(ci);
       real_style.push_back(si);
     }

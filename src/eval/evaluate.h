@@ -102,7 +102,9 @@ struct EvalResult {
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
 //   clips split into two halves by index parity).
 // Throws mosyn::Error when the split has no clip, the dataset does not match the run's features,
-// or the classifier run does not match the dataset.
+// or the classifier's skeleton does not match the dataset's. A classifier trained on another
+// feature form of the same skeleton is fine: samples and real clips are decoded and re-encoded
+// as its data (data::encode_clip_for_dataset), so one classifier scores every family.
 EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& options,
                     const EvalProgressCallback& progress = {});
 

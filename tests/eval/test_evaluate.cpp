@@ -51,12 +51,17 @@ class EvaluateTest : public ::testing::Test {
     o.checkpoint_every = 3;
     nn::train(o, *dataset_);
 
+    // The recurrent VAE on the joint-position form of the same clips, as its paper.
+    p.form = data::PoseForm::kPositions;
+    p.output_dir = (*root_ / "positions").string();
+    data::prepare_dataset(p);
+    positions_ = new data::Dataset(data::Dataset::open(p.output_dir));
     nn::TrainOptions v = o;
     v.family = "rvae";
     v.out_dir = (*root_ / "rvae").string();
     v.model_config = {{"encoder_channels", {8, 8}}, {"control_channels", {4, 4}}, {"decoder_channels", {8}},
                       {"latent", 4}, {"kernel", 3}};
-    nn::train(v, *dataset_);
+    nn::train(v, *positions_);
 
     nn::TrainOptions c = o;
     c.family = "classifier";
@@ -82,16 +87,19 @@ class EvaluateTest : public ::testing::Test {
   static void TearDownTestSuite() {
     delete result_;
     delete dataset_;
+    delete positions_;
     fs::remove_all(*root_);
     delete root_;
   }
   static fs::path* root_;
   static data::Dataset* dataset_;
+  static data::Dataset* positions_;
   static eval::EvalResult* result_;
   static int progress_calls_;
 };
 fs::path* EvaluateTest::root_ = nullptr;
 data::Dataset* EvaluateTest::dataset_ = nullptr;
+data::Dataset* EvaluateTest::positions_ = nullptr;
 eval::EvalResult* EvaluateTest::result_ = nullptr;
 int EvaluateTest::progress_calls_ = 0;
 
@@ -148,7 +156,8 @@ TEST_F(EvaluateTest, JointErrorsNeedLongEnoughClips) {
 }
 
 // The recurrent VAE is not streaming, yet continues a prefix: the same protocol runs without a
-// family special case, prediction included.
+// family special case, prediction included; the rotation-form classifier scores its joint-position
+// samples through decoding and re-encoding.
 TEST_F(EvaluateTest, RecurrentVaeIsEvaluatedTheSameWay) {
   eval::EvalOptions e;
   e.num_samples = 2;
@@ -158,15 +167,19 @@ TEST_F(EvaluateTest, RecurrentVaeIsEvaluatedTheSameWay) {
   e.warmup_s = 0;
   e.error_frames = {20, 120};
   e.threads = 1;
-  const auto r = eval::evaluate((*root_ / "rvae").string(), *dataset_, e);
+  e.classifier_dir = (*root_ / "classifier").string();
+  const auto r = eval::evaluate((*root_ / "rvae").string(), *positions_, e);
   EXPECT_EQ(r.family, "rvae");
   EXPECT_EQ(r.prediction_windows, 2);
   EXPECT_EQ(r.joint_error_clips, 2);
   for (const char* key : {"foot_skating_ratio", "diversity.apd_m", "prediction.ade_m", "joint_error.motion_prior.f20",
-                          "joint_error.pose_initial.f120"}) {
+                          "joint_error.pose_initial.f120", "classifier.content_acc", "classifier.is", "classifier.fid"}) {
     SCOPED_TRACE(key);
     EXPECT_TRUE(std::isfinite(r.row(key).model));
   }
+  // The same held-out clips in either form (same files, same split seed).
+  EXPECT_EQ(r.clips, (std::vector<std::string>{result_->clips[0], result_->clips[2]}));  // every other of 4
+  EXPECT_TRUE(std::isfinite(r.row("classifier.is").real));
 }
 
 TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {
