@@ -38,8 +38,19 @@ if [ -f "$model/checkpoint.pt" ]; then
   "$mosyn" sample "$model" --out "$out/curve" --prefix curve --n 4 --seed 1 --path "0,0 0,3 2,5 5,5 7,3" --positions
   echo "== mosyn sample: stand still for 3 s, then walk 5 m"
   "$mosyn" sample "$model" --out "$out/stand-walk" --prefix stand-walk --n 2 --seed 2 --path "0,0,3 0,5"
+  views=("$out"/curve/*.bvh "$out"/stand-walk/*.bvh)
+  rvae=models/rvae-locomotion
+  held_out="$bandai/data/dataset-2_walk-turn-left_normal_031.bvh"  # a validation file of both models
+  if [ -f "$rvae/checkpoint.pt" ]; then
+    echo "== mosyn sample: the shipped recurrent VAE along the root path of a held-out clip, from its prior"
+    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-prior --n 3 --seed 1 --control "$held_out" --warmup 0
+    echo "== mosyn sample --continue: the recurrent VAE continues the clip's first 4 frames (its posterior)"
+    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-continued --n 2 --seed 2 --continue "$held_out" \
+      --observed-frames 4
+    views+=("$out"/rvae/*.bvh)
+  fi
   echo "== pictures: a viewer page and a filmstrip"
-  "$mosyn" view "$out"/curve/*.bvh "$out"/stand-walk/*.bvh --out "$out/viewer.html"
+  "$mosyn" view "${views[@]}" --out "$out/viewer.html"
   "$mosyn" render "$out"/curve/*.bvh --out "$out/curve.png" --camera top --width 900 --height 600 --overlay
   "$mosyn" render "$out"/stand-walk/stand-walk_000.bvh --out "$out/stand-walk.png" --camera side --filmstrip 6 \
     --width 240 --height 320 --follow
