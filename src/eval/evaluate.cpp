@@ -226,6 +226,16 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
                            spectral_entropy_difference(seqs, real_seqs), 0.0});
   }
 
+  // Sampling extras that continue the first p frames of a clip (its labels included).
+  auto continuation_extras = [&](const data::ClipRecord& rec, int p) {
+    nn::SampleExtras extras;
+    extras.prefix_pose = rows_of(rec.pose, 0, p, d);
+    extras.prefix_control = rows_of(rec.control, 0, p, c);
+    extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
+    extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+    return extras;
+  };
+
   // ---- Joint-position errors against the clip itself (Habibie et al. 2017, Tables 1-2).
   if (o.joint_errors && !o.error_frames.empty()) {
     if (!(o.error_frames_fps > 0)) throw Error("evaluate: error_frames_fps must be > 0");
@@ -258,11 +268,7 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
       for (const auto& m : samples[i]) accumulate(0, m.sequence(), truth);
       // Continuations of the first initial_frames real frames.
       const int p = o.initial_frames;
-      nn::SampleExtras extras;
-      extras.prefix_pose = rows_of(rec.pose, 0, p, d);
-      extras.prefix_control = rows_of(rec.control, 0, p, c);
-      extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
-      extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+      const nn::SampleExtras extras = continuation_extras(rec, p);
       const auto futures = nn::sample_motions(run, rows_of(rec.control, p, rec.num_frames, c), n,
                                               o.seed + 2000003 + i, o.temperature, extras);
       for (const auto& f : futures) {
@@ -296,11 +302,7 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
       report("prediction", static_cast<int>(i), static_cast<int>(chosen.size()));
       const data::ClipRecord& rec = all[chosen[i]];
       if (rec.num_frames < p + h) continue;
-      nn::SampleExtras extras;
-      extras.prefix_pose = rows_of(rec.pose, 0, p, d);
-      extras.prefix_control = rows_of(rec.control, 0, p, c);
-      extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
-      extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+      const nn::SampleExtras extras = continuation_extras(rec, p);
       const std::vector<float> control = rows_of(rec.control, 0, p + h, c);
       const auto futures = nn::sample_motions(run, rows_of(rec.control, p, p + h, c), n, o.seed + 1000003 + i,
                                               o.temperature, extras);
