@@ -177,7 +177,12 @@ Clip subset_by_patterns(const Clip& clip, const std::vector<std::string>& drop_p
 
 Motion resample(const Motion& motion, double fps_out) {
   if (!(fps_out > 0) || !std::isfinite(fps_out)) throw Error("resample: target fps must be positive");
-  if (std::abs(fps_out - motion.fps) <= 1e-6 * motion.fps) return motion;
+  if (std::abs(fps_out - motion.fps) <= 1e-5 * motion.fps) {
+    // The same frames: a rounded frame time (Bandai-Namco's 0.0333333 s) is not a new rate.
+    Motion same = motion;
+    same.fps = fps_out;
+    return same;
+  }
   Motion out;
   out.fps = fps_out;
   out.num_joints = motion.num_joints;

@@ -66,8 +66,9 @@ Clip subset_by_patterns(const Clip& clip, const std::vector<std::string>& drop_p
 
 // The motion resampled at fps_out (e.g. CMU 120 -> 30): frame k lies at time k / fps_out, for
 // every k with k / fps_out <= duration; rotations are slerped and translations interpolated
-// linearly between the two nearest source frames. Returns a copy when fps_out equals the
-// motion's fps (within 1e-6 relative). Throws mosyn::Error for fps_out <= 0.
+// linearly between the two nearest source frames. When fps_out equals the motion's fps within
+// 1e-5 relative (a rounded frame time), returns the same frames labelled fps_out. Throws
+// mosyn::Error for fps_out <= 0.
 Motion resample(const Motion& motion, double fps_out);
 
 // ---- Augmentation -------------------------------------------------------------------------

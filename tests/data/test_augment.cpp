@@ -96,6 +96,12 @@ TEST(Augment, ResampleHalvesFramesAndInterpolates) {
   EXPECT_EQ(two.num_frames, 241);
   EXPECT_LT((two.translation(1, 0) - 0.5 * (m.translation(0, 0) + m.translation(1, 0))).norm(), 1e-9);
   EXPECT_THROW(resample(m, 0.0), Error);
+  // A rounded frame time (Bandai-Namco: 0.0333333 s) is the same rate: same frames, exact label.
+  const Motion rounded = make_synthetic_walk(s, 31, 1.0 / 0.0333333);
+  const Motion same = resample(rounded, 30.0);
+  EXPECT_EQ(same.fps, 30.0);
+  ASSERT_EQ(same.num_frames, 31);
+  EXPECT_EQ(same.translations, rounded.translations);
 }
 
 TEST(Augment, TposeDetection) {
