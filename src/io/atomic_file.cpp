@@ -65,6 +65,15 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
 
 AtomicFileWriter::AtomicFileWriter(const std::string& path) : path_(path) {
   if (path.empty()) throw Error("cannot write a file with an empty path");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory, expected a file name");
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd_ < 0) throw Error(path + ": cannot open for writing: " + errno_text(errno));
+    direct_ = true;
+    buffer_.reserve(kBufferBytes);
+    return;
+  }
   temp_path_ = make_temp_path(path);
   // 0666 filtered by the umask, like any ordinary new file.
   fd_ = ::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
@@ -82,6 +91,7 @@ AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& other) noexcept
     : path_(std::move(other.path_)),
       temp_path_(std::exchange(other.temp_path_, std::string())),
       fd_(std::exchange(other.fd_, -1)),
+      direct_(other.direct_),
       buffer_(std::move(other.buffer_)) {}
 
 AtomicFileWriter& AtomicFileWriter::operator=(AtomicFileWriter&& other) noexcept {
@@ -90,6 +100,7 @@ AtomicFileWriter& AtomicFileWriter::operator=(AtomicFileWriter&& other) noexcept
     path_ = std::move(other.path_);
     temp_path_ = std::exchange(other.temp_path_, std::string());
     fd_ = std::exchange(other.fd_, -1);
+    direct_ = other.direct_;
     buffer_ = std::move(other.buffer_);
   }
   return *this;
@@ -127,6 +138,12 @@ void AtomicFileWriter::write(const void* data, std::size_t num_bytes) {
 void AtomicFileWriter::commit() {
   if (fd_ < 0) throw Error(path_ + ": commit after the file was committed or abandoned");
   flush_buffer();
+  if (direct_) {  // a device or pipe: nothing to sync or rename
+    const int closed = ::close(fd_);
+    fd_ = -1;
+    if (closed != 0) throw Error(path_ + ": cannot close: " + errno_text(errno));
+    return;
+  }
   if (::fsync(fd_) != 0) {
     const int err = errno;
     abort();

@@ -4,7 +4,9 @@
 // Atomic writes go to a temporary file in the destination's directory ("<path>.tmp.<pid>.<n>"),
 // are flushed to disk, and are then renamed over the destination. Readers therefore see either
 // the old file or the complete new one, never a partial file; a failed or abandoned write
-// leaves the old file untouched and removes the temporary file.
+// leaves the old file untouched and removes the temporary file. A destination that exists and is
+// not a regular file (/dev/null, /dev/stdout, a named pipe) is written directly instead: renaming
+// over it would replace the device or pipe with a plain file.
 #pragma once
 
 #include <cstddef>
@@ -67,6 +69,7 @@ class AtomicFileWriter {
   std::string path_;
   std::string temp_path_;
   int fd_ = -1;
+  bool direct_ = false;  // writing straight into a device or pipe (no temporary file)
   std::string buffer_;
 };
 

@@ -1,10 +1,13 @@
 #include "io/atomic_file.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <stdexcept>
+#include <thread>
 
 #include "core/error.h"
 #include "io_test_util.h"
@@ -15,6 +18,16 @@ namespace {
 namespace fs = std::filesystem;
 
 using testing::make_temp_dir;
+
+// Everything written into a named pipe until the writer closes it.
+std::string read_fifo(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  std::string out;
+  char buf[256];
+  for (ssize_t n; fd >= 0 && (n = ::read(fd, buf, sizeof buf)) > 0;) out.append(buf, static_cast<size_t>(n));
+  if (fd >= 0) ::close(fd);
+  return out;
+}
 
 size_t count_entries(const fs::path& dir) {
   size_t n = 0;
@@ -129,6 +142,28 @@ TEST(AtomicFile, UnwritableDirectoryGivesAClearError) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
   EXPECT_THROW(write_file_atomically("", "x"), Error);
+}
+
+// Devices and pipes are written in place: renaming over /dev/null would replace the device with
+// a plain file (as `mosyn eval --out /dev/null` once did).
+TEST(AtomicFile, DevicesAndPipesAreWrittenInPlace) {
+  write_file_atomically("/dev/null", "discarded");
+  struct stat st {};
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+
+  const std::string fifo = (std::filesystem::temp_directory_path() / ("mosyn_fifo_" + std::to_string(::getpid()))).string();
+  ::unlink(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string got;
+  std::thread reader([&] { got = read_fifo(fifo); });
+  write_file_atomically(fifo, "through the pipe");
+  reader.join();
+  EXPECT_EQ(got, "through the pipe");
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  ::unlink(fifo.c_str());
+  EXPECT_THROW(write_file_atomically(std::filesystem::temp_directory_path().string(), "x"), Error);
 }
 
 }  // namespace
