@@ -54,6 +54,10 @@ if [ -f "$model/checkpoint.pt" ]; then
   "$mosyn" render "$out"/curve/*.bvh --out "$out/curve.png" --camera top --width 900 --height 600 --overlay
   "$mosyn" render "$out"/stand-walk/stand-walk_000.bvh --out "$out/stand-walk.png" --camera side --filmstrip 6 \
     --width 240 --height 320 --follow
+  if [ -f "$out/rvae/rvae-prior_000.bvh" ]; then
+    "$mosyn" render "$out/rvae/rvae-prior_000.bvh" --out "$out/rvae.png" --camera side --filmstrip 8 \
+      --width 200 --height 300 --follow
+  fi
 fi
 
 echo
