@@ -9,6 +9,7 @@
 #include "core/kinematics.h"
 #include "core/units.h"
 #include "data/augment.h"
+#include "data/control.h"
 #include "io/bvh.h"
 #include "io/csv.h"
 #include "io/json_file.h"
@@ -48,14 +49,18 @@ struct ConvertOptions {
   std::string joints, drop_joints;
   bool positions = false;
   bool metres = false;
+  bool control = false;
 };
 
 void run_convert(const ConvertOptions& o) {
   const std::string ext = extension_of(o.output);
   if (ext != "bvh" && ext != "npy" && ext != "csv" && ext != "json")
     throw UsageError("output '" + o.output + "' must end in .bvh, .npy, .csv or .json");
-  if ((ext == "npy" || ext == "csv") && !o.positions)
-    throw UsageError(".npy and .csv outputs hold world joint positions: add --positions");
+  if (o.control && (ext != "csv" || o.positions))
+    throw UsageError("--control writes the root control as CSV: give an output ending in .csv and no --positions");
+  if (ext == "npy" && !o.positions) throw UsageError(".npy outputs hold world joint positions: add --positions");
+  if (ext == "csv" && !o.positions && !o.control)
+    throw UsageError(".csv outputs hold world joint positions (--positions) or the root control (--control)");
   if (ext == "bvh" && o.positions) throw UsageError("--positions does not apply to .bvh output");
   if (o.fps < 0) throw UsageError("--fps must be positive");
 
@@ -65,6 +70,15 @@ void run_convert(const ConvertOptions& o) {
   if (reshaped) clip = data::subset_by_patterns(clip, split_commas(o.drop_joints), split_commas(o.joints));
   if (o.fps > 0) clip.motion = data::resample(clip.motion, o.fps);
 
+  if (o.control) {
+    const std::vector<float> control = data::control_from_clip(clip, clip.motion.fps);
+    std::vector<Eigen::Vector3d> rows(control.size() / 3);
+    for (size_t t = 0; t < rows.size(); ++t) rows[t] = {control[3 * t], control[3 * t + 1], control[3 * t + 2]};
+    io::write_control_csv(o.output, rows);
+    std::fprintf(stderr, "wrote %s: %zu frames of dx, dz (m) and dtheta (rad) at %g fps\n", o.output.c_str(), rows.size(),
+                 clip.motion.fps);
+    return;
+  }
   if (ext == "bvh") {
     // Keep the source's channel layout when the joints are the same.
     io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));
@@ -131,6 +145,9 @@ void add_convert_command(CLI::App& app, Action* action) {
                 "write world joint positions: NPY float32 [T,J,3] in BVH joint order (End Sites excluded), "
                 "CSV 'frame,joint,x,y,z', or JSON");
   cmd->add_flag("--metres", o->metres, "scale positions to metres (units guessed from the skeleton's size)");
+  cmd->add_flag("--control", o->control,
+                "write the root control as CSV 'dx,dz,dtheta' per frame (metres, radians; the input of "
+                "`mosyn sample --control`)");
   cmd->callback([action, o] { *action = [o] { run_convert(*o); }; });
 }
 
