@@ -126,7 +126,7 @@ struct SampleArgs {
   std::string path, control_file, data_dir, split = "val", checkpoint = "checkpoint.pt", prefix = "sample";
   int clip = -1;
   double speed_mps = 1.3;
-  double warmup_s = 1.0;
+  double warmup_s = -1.0;  // < 0: the family's default
   int threads = 0;
   std::string content, style;
   std::string continue_file;  // --continue: observed motion to continue
@@ -150,7 +150,6 @@ void run_sample(const SampleArgs& a) {
   if (a.seconds < 0 || a.seconds > 3600) throw UsageError("--seconds must be in [0, 3600]");
   if (!(a.temperature >= 0)) throw UsageError("--temperature must not be negative");
   if (!(a.speed_mps > 0)) throw UsageError("--speed must be positive");
-  if (a.warmup_s < 0 || a.warmup_s > 60) throw UsageError("--warmup must be in [0, 60] seconds");
 
   if (!(a.observed_s > 0) || a.observed_s > 3600) throw UsageError("--observed must be in (0, 3600] seconds");
   if (a.observed_frames == 0 || a.observed_frames < -1) throw UsageError("--observed-frames must be >= 1");
@@ -233,7 +232,8 @@ void run_sample(const SampleArgs& a) {
   nn::SampleExtras extras;
   extras.content = label_index(run.dataset.content_labels, a.content, "content label");
   extras.style = label_index(run.dataset.style_labels, a.style, "style label");
-  extras.warmup_frames = observed > 0 ? 0 : static_cast<int>(std::lround(a.warmup_s * fps));
+  const double warmup_s = a.warmup_s >= 0 ? a.warmup_s : run.model->default_warmup_s();
+  extras.warmup_frames = observed > 0 ? 0 : static_cast<int>(std::lround(warmup_s * fps));
   extras.prefix_pose = observed_pose;
   extras.prefix_control = observed_control;
   auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
@@ -354,8 +354,9 @@ void add_model_commands(CLI::App& app, Action* action) {
   sample->add_option("--split", s->split, "dataset split for --data")->capture_default_str();
   sample->add_option("--clip", s->clip, "clip index in the split for --data");
   sample->add_option("--warmup", s->warmup_s,
-                     "seconds of standing generated first and dropped, so motion starts from a natural pose")
-      ->capture_default_str();
+                     "seconds of standing generated first and dropped, so motion starts from a natural pose "
+                     "(default: the family's, 1 for moglow, 0 for rvae)")
+      ->check(CLI::Range(0.0, 60.0));
   sample->add_option("--content", s->content, "content label, for label-conditioned families");
   sample->add_option("--style", s->style, "style label, for label-conditioned families");
   sample->add_option("--checkpoint", s->checkpoint, "checkpoint file in the run directory (e.g. best.pt)")

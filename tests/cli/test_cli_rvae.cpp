@@ -98,6 +98,7 @@ TEST_F(CliRvaeTest, ContinueErrors) {
   const std::string base = "sample " + *root_ + "/run --out " + *root_ + "/e --threads 1 ";
   EXPECT_EQ(run_mosyn(base + "--continue " + file + " --observed-frames 0").exit_code, 2);
   EXPECT_EQ(run_mosyn(base + "--continue " + file + " --observed -1").exit_code, 2);
+  EXPECT_EQ(run_mosyn(base + "--warmup -2").exit_code, 2);
   const auto missing = run_mosyn(base + "--continue /nonexistent/walk.bvh");
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_THAT(missing.err, HasSubstr("/nonexistent/walk.bvh"));
@@ -117,9 +118,14 @@ TEST_F(CliRvaeTest, ContinueErrors) {
 }
 
 TEST_F(CliRvaeTest, EvalReportsThePaperErrors) {
-  const auto e = run_mosyn("eval " + *root_ + "/run --data " + *root_ + "/dataset --n 2 --max-clips 2 --warmup 0 "
-                           "--prefix 0.5 --horizon 1 --error-frames 20,60,120 --threads 1");
+  const std::string args = "eval " + *root_ + "/run --data " + *root_ + "/dataset --n 2 --max-clips 2 "
+                           "--prefix 0.5 --horizon 1 --error-frames 20,60,120 --threads 1";
+  const auto e = run_mosyn(args);
   ASSERT_EQ(e.exit_code, 0) << e.err;
+  // The family's default warm-up is none: the same numbers as --warmup 0, not as --warmup 1.
+  EXPECT_EQ(run_mosyn(args + " --warmup 0").out, e.out);
+  EXPECT_NE(run_mosyn(args + " --warmup 1").out, e.out);
+  EXPECT_EQ(run_mosyn(args + " --warmup -1").exit_code, 2);
   EXPECT_THAT(e.out, HasSubstr("motion error, prior sample at 0.33 s (cm)"));
   EXPECT_THAT(e.out, HasSubstr("pose error (root-relative), 4 initial frames at 2.00 s (cm)"));
   EXPECT_THAT(e.out, HasSubstr("prediction ADE (m)"));

@@ -288,6 +288,10 @@ TEST(Rvae, RegistryAndConfig) {
   EXPECT_NE(std::find(families.begin(), families.end(), "rvae"), families.end());
   auto m = create_model("rvae", nlohmann::json::object(), small_context());
   EXPECT_EQ(m->family(), "rvae");
+  // Its first frames come from a latent, not a neutral history: no standing warm-up by default,
+  // unlike MoGlow's mean-pose start.
+  EXPECT_EQ(m->default_warmup_s(), 0.0);
+  EXPECT_EQ(create_model("moglow", {{"num_steps", 2}, {"hidden", 8}}, small_context())->default_warmup_s(), 1.0);
   auto cfg = m->config();
   EXPECT_EQ(cfg.at("kernel"), 25);
   EXPECT_EQ(cfg.at("latent"), 128);

@@ -143,6 +143,7 @@ class MoGlowImpl : public MotionModel {
 
   torch::Tensor sample(const SampleRequest& request) override;
   bool supports_streaming() const override { return true; }
+  double default_warmup_s() const override { return 1.0; }
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
   torch::Tensor step_stream(StreamState& state, const torch::Tensor& control) override;
 
