@@ -8,19 +8,11 @@
 #include <map>
 
 #include "core/error.h"
+#include "nn/config_json.h"
 
 namespace mosyn::nn {
 
 namespace {
-
-int get_int(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number_integer()) throw Error(std::string("classifier config: '") + key + "' must be an integer");
-  return j.at(key).get<int>();
-}
-double get_double(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number()) throw Error(std::string("classifier config: '") + key + "' must be a number");
-  return j.at(key).get<double>();
-}
 
 // Cross-entropy and accuracy over the rows whose label is >= 0; (0, 0, 0 rows) when none.
 struct Ce {
@@ -56,11 +48,11 @@ ClassifierOptions ClassifierOptions::from_json(const nlohmann::json& config) {
   for (auto it = config.begin(); it != config.end(); ++it) {
     const std::string& k = it.key();
     if (k == "family") continue;
-    if (k == "channels") o.channels = get_int(config, "channels");
-    else if (k == "kernel") o.kernel = get_int(config, "kernel");
-    else if (k == "features") o.features = get_int(config, "features");
-    else if (k == "dropout") o.dropout = get_double(config, "dropout");
-    else if (k == "style_weight") o.style_weight = get_double(config, "style_weight");
+    if (k == "channels") o.channels = config_int(config, "channels", "classifier");
+    else if (k == "kernel") o.kernel = config_int(config, "kernel", "classifier");
+    else if (k == "features") o.features = config_int(config, "features", "classifier");
+    else if (k == "dropout") o.dropout = config_double(config, "dropout", "classifier");
+    else if (k == "style_weight") o.style_weight = config_double(config, "style_weight", "classifier");
     else if (k == "use_control") {
       if (!it.value().is_boolean()) throw Error("classifier config: 'use_control' must be true or false");
       o.use_control = it.value().get<bool>();

@@ -8,21 +8,11 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "nn/config_json.h"
 
 namespace mosyn::nn {
 
 namespace {
-
-constexpr double kLog2Pi = 1.8378770664093454835606594728112;
-
-int get_int(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number_integer()) throw Error(std::string("moglow config: '") + key + "' must be an integer");
-  return j.at(key).get<int>();
-}
-double get_double(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number()) throw Error(std::string("moglow config: '") + key + "' must be a number");
-  return j.at(key).get<double>();
-}
 
 }  // namespace
 
@@ -47,12 +37,12 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
   for (auto it = config.begin(); it != config.end(); ++it) {
     const std::string& k = it.key();
     if (k == "preset" || k == "family") continue;
-    if (k == "num_steps") o.num_steps = get_int(config, "num_steps");
-    else if (k == "hidden") o.hidden = get_int(config, "hidden");
-    else if (k == "lstm_layers") o.lstm_layers = get_int(config, "lstm_layers");
-    else if (k == "tau") o.tau = get_int(config, "tau");
-    else if (k == "dropout") o.dropout = get_double(config, "dropout");
-    else if (k == "scale_eps") o.scale_eps = get_double(config, "scale_eps");
+    if (k == "num_steps") o.num_steps = config_int(config, "num_steps", "moglow");
+    else if (k == "hidden") o.hidden = config_int(config, "hidden", "moglow");
+    else if (k == "lstm_layers") o.lstm_layers = config_int(config, "lstm_layers", "moglow");
+    else if (k == "tau") o.tau = config_int(config, "tau", "moglow");
+    else if (k == "dropout") o.dropout = config_double(config, "dropout", "moglow");
+    else if (k == "scale_eps") o.scale_eps = config_double(config, "scale_eps", "moglow");
     else throw Error("moglow config: unknown key '" + k + "'");
   }
   if (o.dropout < 0) o.dropout = context.pose_form == "positions" ? 0.95 : 0.6;

@@ -6,32 +6,11 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "nn/config_json.h"
 
 namespace mosyn::nn {
 
 namespace {
-
-constexpr double kLog2Pi = 1.8378770664093454835606594728112;
-
-int get_int(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number_integer()) throw Error(std::string("rvae config: '") + key + "' must be an integer");
-  return j.at(key).get<int>();
-}
-double get_double(const nlohmann::json& j, const char* key) {
-  if (!j.at(key).is_number()) throw Error(std::string("rvae config: '") + key + "' must be a number");
-  return j.at(key).get<double>();
-}
-std::vector<int> get_ints(const nlohmann::json& j, const char* key) {
-  const auto& v = j.at(key);
-  if (!v.is_array()) throw Error(std::string("rvae config: '") + key + "' must be an array of integers");
-  std::vector<int> out;
-  for (const auto& e : v) {
-    if (!e.is_number_integer()) throw Error(std::string("rvae config: '") + key + "' must be an array of integers");
-    out.push_back(e.get<int>());
-    if (out.back() < 1) throw Error(std::string("rvae config: '") + key + "' entries must be >= 1");
-  }
-  return out;
-}
 
 torch::Tensor activation(const torch::Tensor& x) { return torch::elu(x); }
 
@@ -46,15 +25,15 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   for (auto it = config.begin(); it != config.end(); ++it) {
     const std::string& k = it.key();
     if (k == "family") continue;
-    if (k == "encoder_channels") o.encoder_channels = get_ints(config, "encoder_channels");
-    else if (k == "control_channels") o.control_channels = get_ints(config, "control_channels");
-    else if (k == "decoder_channels") o.decoder_channels = get_ints(config, "decoder_channels");
-    else if (k == "latent") o.latent = get_int(config, "latent");
-    else if (k == "kernel") o.kernel = get_int(config, "kernel");
-    else if (k == "input_dropout") o.input_dropout = get_double(config, "input_dropout");
-    else if (k == "kl_weight") o.kl_weight = get_double(config, "kl_weight");
-    else if (k == "kl_anneal") o.kl_anneal = get_double(config, "kl_anneal");
-    else if (k == "l1") o.l1 = get_double(config, "l1");
+    if (k == "encoder_channels") o.encoder_channels = config_positive_ints(config, "encoder_channels", "rvae");
+    else if (k == "control_channels") o.control_channels = config_positive_ints(config, "control_channels", "rvae");
+    else if (k == "decoder_channels") o.decoder_channels = config_positive_ints(config, "decoder_channels", "rvae");
+    else if (k == "latent") o.latent = config_int(config, "latent", "rvae");
+    else if (k == "kernel") o.kernel = config_int(config, "kernel", "rvae");
+    else if (k == "input_dropout") o.input_dropout = config_double(config, "input_dropout", "rvae");
+    else if (k == "kl_weight") o.kl_weight = config_double(config, "kl_weight", "rvae");
+    else if (k == "kl_anneal") o.kl_anneal = config_double(config, "kl_anneal", "rvae");
+    else if (k == "l1") o.l1 = config_double(config, "l1", "rvae");
     else if (k == "test_latents") {
       if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
       o.test_latents = it.value().get<std::string>();
