@@ -55,17 +55,6 @@ struct MetricsArgs {
   eval::FootSkatingOptions skating;
 };
 
-std::string format_value(double v) {
-  if (!std::isfinite(v)) return "n/a";
-  if (std::abs(v) < 1e-9) v = 0;  // rounding noise of exact zeros (e.g. rigid parts under FK)
-  char buf[32];
-  if (v == std::round(v) && std::abs(v) < 1e9)
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-  else
-    std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
-
 std::vector<eval::MotionPositions> positions_of(const std::vector<std::string>& paths, double units_m) {
   const std::vector<Clip> clips = read_clips(paths);
   std::vector<eval::MotionPositions> out;
@@ -110,11 +99,12 @@ void run_metrics(const MetricsArgs& a) {
   std::printf("| metric | files |%s\n", with_ref ? " reference |" : "");
   std::printf("|---|---|%s\n", with_ref ? "---|" : "");
   for (size_t i = 0; i < rows.size(); ++i) {
-    std::printf("| %s | %s |", rows[i].label.c_str(), format_value(rows[i].value).c_str());
-    if (with_ref) std::printf(" %s |", format_value(ref_rows[i].value).c_str());
+    std::printf("| %s | %s |", rows[i].label.c_str(), eval::format_metric_value(rows[i].value).c_str());
+    if (with_ref) std::printf(" %s |", eval::format_metric_value(ref_rows[i].value).c_str());
     std::printf("\n");
   }
-  if (with_ref) std::printf("| FSE: spectral entropy minus reference's (nats) | %s | 0 |\n", format_value(fse).c_str());
+  if (with_ref)
+    std::printf("| FSE: spectral entropy minus reference's (nats) | %s | 0 |\n", eval::format_metric_value(fse).c_str());
 
   if (!a.json_out.empty()) {
     nlohmann::json j;

@@ -110,7 +110,7 @@ EvalResult EvalResult::from_json(const nlohmann::json& j) {
 
 std::string format_metric_value(double v) {
   if (!std::isfinite(v)) return "n/a";
-  if (std::abs(v) < 1e-9) v = 0;
+  if (std::abs(v) < 1e-9) v = 0;  // rounding noise of exact zeros (e.g. rigid parts under FK)
   char buf[32];
   if (v == std::round(v) && std::abs(v) < 1e9)
     std::snprintf(buf, sizeof buf, "%.0f", v);
