@@ -232,8 +232,7 @@ void run_sample(const SampleArgs& a) {
   nn::SampleExtras extras;
   extras.content = label_index(run.dataset.content_labels, a.content, "content label");
   extras.style = label_index(run.dataset.style_labels, a.style, "style label");
-  const double warmup_s = a.warmup_s >= 0 ? a.warmup_s : run.model->default_warmup_s();
-  extras.warmup_frames = observed > 0 ? 0 : static_cast<int>(std::lround(warmup_s * fps));
+  extras.warmup_frames = a.warmup_s >= 0 ? static_cast<int>(std::lround(a.warmup_s * fps)) : nn::kFamilyWarmup;
   extras.prefix_pose = observed_pose;
   extras.prefix_control = observed_control;
   auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);

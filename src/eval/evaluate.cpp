@@ -168,7 +168,8 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
   const int n = o.num_samples;
 
   // ---- Sampling: N motions per held-out control.
-  const double warmup_s = o.warmup_s >= 0 ? o.warmup_s : run.model->default_warmup_s();
+  const int warmup_frames =
+      o.warmup_s >= 0 ? static_cast<int>(std::lround(o.warmup_s * run.dataset.fps)) : nn::kFamilyWarmup;
   std::vector<MotionPositions> real;                   // [clips]
   std::vector<std::vector<MotionPositions>> samples;   // [clips][N]
   std::vector<std::vector<std::vector<float>>> sample_poses;  // raw, for the classifier
@@ -181,7 +182,7 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     nn::SampleExtras extras;
     extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
     extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
-    extras.warmup_frames = static_cast<int>(std::lround(warmup_s * run.dataset.fps));
+    extras.warmup_frames = warmup_frames;
     auto poses = nn::sample_motions(run, rec.control, n, o.seed + i, o.temperature, extras);
     std::vector<MotionPositions> mine;
     for (int k = 0; k < n; ++k)

@@ -88,11 +88,11 @@ class MotionModel : public torch::nn::Module {
   // frame. Deterministic given the request (seed included); no gradient is recorded.
   virtual torch::Tensor sample(const SampleRequest& request) = 0;
 
-  // Seconds of standing (zero control) that offline sampling should generate first and drop when
-  // the caller leaves the choice to the family (mosyn sample / eval without --warmup): families
-  // that start from a neutral initial state need it to settle into a natural pose (MoGlow: the
-  // mean pose as history, 1 s); 0 for those whose first frames are already natural (the
-  // recurrent VAE, whose first latent comes from the prior or the posterior).
+  // Seconds of standing (zero control) that offline sampling generates first and drops when the
+  // caller leaves the choice to the family (nn::kFamilyWarmup; mosyn sample / eval without
+  // --warmup). Families that start from a neutral initial state need it to settle into a natural
+  // pose (MoGlow: the mean pose as history, 1 s); 0 for those whose first frames are already
+  // natural (the recurrent VAE, whose first latent comes from the prior or the posterior).
   virtual double default_warmup_s() const { return 0.0; }
 
   // Causal models support frame-by-frame generation with no algorithmic latency.

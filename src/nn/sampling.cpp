@@ -2,6 +2,8 @@
 // features with the run's statistics around MotionModel::sample / begin_stream / step_stream.
 #include "nn/sampling.h"
 
+#include <cmath>
+
 #include <torch/types.h>
 #include <torch/utils.h>
 
@@ -64,9 +66,12 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
   const int64_t d = run.context.pose_dim, c = run.context.control_dim;
   if (control.empty() || control.size() % c != 0)
     throw Error("sample_motions: control is not [T, " + std::to_string(c) + "]");
-  if (extras.warmup_frames < 0) throw Error("sample_motions: warmup_frames must be >= 0");
+  if (extras.warmup_frames < 0 && extras.warmup_frames != kFamilyWarmup)
+    throw Error("sample_motions: warmup_frames must be >= 0 or kFamilyWarmup");
   const int64_t t = static_cast<int64_t>(control.size()) / c;
-  const int64_t w = extras.warmup_frames;
+  int64_t w = extras.warmup_frames;
+  if (w == kFamilyWarmup) w = std::lround(run.model->default_warmup_s() * run.dataset.fps);
+  if (!extras.prefix_pose.empty()) w = 0;  // the real prefix is the start
   std::vector<float> full_control(static_cast<size_t>(w * c), 0.0f);
   full_control.insert(full_control.end(), control.begin(), control.end());
   Standardiser st(run.stats);

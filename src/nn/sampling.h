@@ -11,6 +11,10 @@
 
 namespace mosyn::nn {
 
+// SampleExtras::warmup_frames value meaning "the family's own": MotionModel::default_warmup_s()
+// at the run's frame rate (MoGlow 1 s, rvae none).
+constexpr int kFamilyWarmup = -1;
+
 struct SampleExtras {
   std::vector<float> prefix_pose;     // optional raw [P, D]: motion preceding the generated frames
   std::vector<float> prefix_control;  // optional raw [P, C] (empty = mean control)
@@ -19,7 +23,8 @@ struct SampleExtras {
   // Frames of standing (all-zero raw control) generated before the requested control and then
   // dropped. Without a prefix a model starts from its initial state (MoGlow: the mean pose as
   // history), which shows as an unnatural first frame; warming up lets it settle into a
-  // natural standing pose first. 0 = none.
+  // natural standing pose first. 0 = none; kFamilyWarmup = the family's default. Not used with a
+  // prefix: real motion already gives the model its start.
   int warmup_frames = 0;
 };
 

@@ -363,6 +363,16 @@ TEST(Rvae, TrainsThroughSharedTrainer) {
   SampleExtras extras;
   extras.prefix_pose.assign(5 * kDim, 0.1f);
   extras.warmup_frames = 3;
-  EXPECT_EQ(sample_motions(run, control, 1, 9, 1.0, extras)[0].size(), 50u * kDim);
+  const auto continued = sample_motions(run, control, 1, 9, 1.0, extras);
+  EXPECT_EQ(continued[0].size(), 50u * kDim);
+  // A real prefix is the start: no standing warm-up is put between it and the control.
+  extras.warmup_frames = 0;
+  EXPECT_EQ(sample_motions(run, control, 1, 9, 1.0, extras), continued);
+  // The family's default warm-up is none for this family.
+  SampleExtras family;
+  family.warmup_frames = kFamilyWarmup;
+  EXPECT_EQ(sample_motions(run, control, 2, 9, 1.0, family), a);
+  family.warmup_frames = -2;
+  EXPECT_THROW(sample_motions(run, control, 2, 9, 1.0, family), mosyn::Error);
   fs::remove_all(dir);
 }
