@@ -228,14 +228,22 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
                            spectral_entropy_difference(seqs, real_seqs), 0.0});
   }
 
-  // Sampling extras that continue the first p frames of a clip (its labels included).
-  auto continuation_extras = [&](const data::ClipRecord& rec, int p) {
+  // N continuations of a clip's first p frames up to frame `end`, given its true control (and
+  // labels): world joint-position sequences [end, J * 3] of the real prefix + generated frames.
+  auto continuations = [&](const data::ClipRecord& rec, int p, int end, std::uint64_t seed) {
     nn::SampleExtras extras;
     extras.prefix_pose = rows_of(rec.pose, 0, p, d);
     extras.prefix_control = rows_of(rec.control, 0, p, c);
     extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
     extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
-    return extras;
+    const std::vector<float> control = rows_of(rec.control, 0, end, c);
+    std::vector<Eigen::MatrixXd> out;
+    for (const auto& future : nn::sample_motions(run, rows_of(rec.control, p, end, c), n, seed, o.temperature, extras)) {
+      std::vector<float> whole = extras.prefix_pose;
+      whole.insert(whole.end(), future.begin(), future.end());
+      out.push_back(motion_positions(nn::decode_motion(run, whole, control)).sequence());
+    }
+    return out;
   };
 
   // ---- Joint-position errors against the clip itself (Habibie et al. 2017, Tables 1-2).
@@ -254,9 +262,11 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     // [setting][frame] sums over clips x samples; settings: motion/pose x prior/initial.
     std::vector<std::vector<double>> sums(4, std::vector<double>(nf, 0.0));
     int count = 0;
-    auto accumulate = [&](int setting, const Eigen::MatrixXd& sample, const Eigen::MatrixXd& truth) {
+    // Adds the errors of one sample against the clip (world and pelvis-relative sequences).
+    auto accumulate = [&](int setting, const Eigen::MatrixXd& sample, const Eigen::MatrixXd& truth,
+                          const Eigen::MatrixXd& truth_relative) {
       const auto motion = joint_position_errors_m(sample, truth, frames);
-      const auto pose = joint_position_errors_m(root_relative(sample), root_relative(truth), frames);
+      const auto pose = joint_position_errors_m(root_relative(sample), truth_relative, frames);
       for (size_t k = 0; k < nf; ++k) {
         sums[setting][k] += motion[k];
         sums[setting + 1][k] += pose[k];
@@ -266,18 +276,10 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
       report("joint errors", static_cast<int>(i), static_cast<int>(chosen.size()));
       const data::ClipRecord& rec = all[chosen[i]];
       if (rec.num_frames <= last) continue;
-      const Eigen::MatrixXd truth = real[i].sequence();
-      for (const auto& m : samples[i]) accumulate(0, m.sequence(), truth);
-      // Continuations of the first initial_frames real frames.
-      const int p = o.initial_frames;
-      const nn::SampleExtras extras = continuation_extras(rec, p);
-      const auto futures = nn::sample_motions(run, rows_of(rec.control, p, rec.num_frames, c), n,
-                                              o.seed + 2000003 + i, o.temperature, extras);
-      for (const auto& f : futures) {
-        std::vector<float> whole = extras.prefix_pose;
-        whole.insert(whole.end(), f.begin(), f.end());
-        accumulate(2, motion_positions(nn::decode_motion(run, whole, rec.control)).sequence(), truth);
-      }
+      const Eigen::MatrixXd truth = real[i].sequence(), truth_relative = root_relative(truth);
+      for (const auto& m : samples[i]) accumulate(0, m.sequence(), truth, truth_relative);
+      for (const auto& s : continuations(rec, o.initial_frames, rec.num_frames, o.seed + 2000003 + i))
+        accumulate(2, s, truth, truth_relative);
       ++count;
     }
     result.joint_error_clips = count;
@@ -304,21 +306,14 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
       report("prediction", static_cast<int>(i), static_cast<int>(chosen.size()));
       const data::ClipRecord& rec = all[chosen[i]];
       if (rec.num_frames < p + h) continue;
-      const nn::SampleExtras extras = continuation_extras(rec, p);
-      const std::vector<float> control = rows_of(rec.control, 0, p + h, c);
-      const auto futures = nn::sample_motions(run, rows_of(rec.control, p, p + h, c), n, o.seed + 1000003 + i,
-                                              o.temperature, extras);
       PredictionWindow w;
-      const Eigen::MatrixXd truth =
-          root_relative(motion_positions(nn::decode_motion(run, rows_of(rec.pose, 0, p + h, d), control)).sequence());
+      const Eigen::MatrixXd truth = root_relative(
+          motion_positions(nn::decode_motion(run, rows_of(rec.pose, 0, p + h, d), rows_of(rec.control, 0, p + h, c)))
+              .sequence());
       w.ground_truth = truth.middleRows(p, h);
       w.last_context_pose = truth.row(p - 1).transpose();
-      for (const auto& f : futures) {
-        std::vector<float> whole = extras.prefix_pose;
-        whole.insert(whole.end(), f.begin(), f.end());
-        w.samples.push_back(
-            root_relative(motion_positions(nn::decode_motion(run, whole, control)).sequence()).middleRows(p, h));
-      }
+      for (const auto& s : continuations(rec, p, p + h, o.seed + 1000003 + i))
+        w.samples.push_back(root_relative(s).middleRows(p, h));
       windows.push_back(std::move(w));
     }
     if (!windows.empty()) {
