@@ -90,11 +90,7 @@ void run_convert(const ConvertOptions& o) {
   std::vector<Eigen::Vector3d> positions = poses.positions;
   for (auto& p : positions) p *= scale;
   if (ext == "npy") {
-    std::vector<float> values;
-    values.reserve(positions.size() * 3);
-    for (const auto& p : positions)
-      for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k]));
-    io::write_npy(o.output, {num_frames, num_joints, 3}, values);
+    io::write_positions_npy(o.output, num_frames, num_joints, positions);
   } else if (ext == "csv") {
     io::write_positions_csv(o.output, clip.skeleton.joint_names, num_frames, positions);
   } else {

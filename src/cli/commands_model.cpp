@@ -252,12 +252,8 @@ void run_sample(const SampleArgs& a) {
                                       start_heading);
     io::write_bvh(base + ".bvh", io::from_clip(clip));
     if (a.positions) {
-      const WorldPoses world = forward_kinematics(clip.skeleton, clip.motion);
-      std::vector<float> values;
-      values.reserve(world.positions.size() * 3);
-      for (const auto& p : world.positions)
-        for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k] * clip.skeleton.meters_per_unit));
-      io::write_npy(base + ".npy", {total_frames, clip.skeleton.num_joints(), 3}, values);
+      io::write_positions_npy(base + ".npy", total_frames, clip.skeleton.num_joints(),
+                              forward_kinematics(clip.skeleton, clip.motion).positions, clip.skeleton.meters_per_unit);
     }
     nlohmann::json sidecar = {{"model", {{"run_dir", a.run_dir}, {"family", run.family}, {"step", run.step},
                                          {"checkpoint", a.checkpoint}}},

@@ -236,6 +236,19 @@ void write_npy(const std::string& path, const std::vector<std::int64_t>& shape, 
   write_npy(path, make_npy(shape, data));
 }
 
+void write_positions_npy(const std::string& path, int num_frames, int num_joints,
+                         const std::vector<Eigen::Vector3d>& positions, double scale) {
+  if (num_frames < 0 || num_joints < 0 ||
+      positions.size() != static_cast<size_t>(num_frames) * static_cast<size_t>(num_joints))
+    throw Error(path + ": " + std::to_string(positions.size()) + " joint positions for " + std::to_string(num_frames) +
+                " frames of " + std::to_string(num_joints) + " joints");
+  std::vector<float> values;
+  values.reserve(positions.size() * 3);
+  for (const auto& p : positions)
+    for (int k = 0; k < 3; ++k) values.push_back(static_cast<float>(p[k] * scale));
+  write_npy(path, {num_frames, num_joints, 3}, values);
+}
+
 NpyArray parse_npy(const std::string& bytes, const std::string& file_name_for_errors) {
   const std::string& file = file_name_for_errors;
   if (bytes.size() < kMagicSize + 2 || bytes.compare(0, kMagicSize, kMagic, kMagicSize) != 0)

@@ -6,6 +6,7 @@
 // bytes, as NumPy does. Files are written atomically (io/atomic_file.h).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -48,6 +49,10 @@ void write_npy(const std::string& path, const NpyArray& array);
 // Convenience: make_npy + write_npy.
 void write_npy(const std::string& path, const std::vector<std::int64_t>& shape, const std::vector<float>& data);
 void write_npy(const std::string& path, const std::vector<std::int64_t>& shape, const std::vector<double>& data);
+// Joint positions [T, J] (row-major, index t * J + j) times scale, as float32 [T, J, 3]. Throws
+// mosyn::Error when positions does not hold num_frames * num_joints entries.
+void write_positions_npy(const std::string& path, int num_frames, int num_joints,
+                         const std::vector<Eigen::Vector3d>& positions, double scale = 1.0);
 
 // Parses .npy bytes. Validates the magic string, version, header dictionary ('descr',
 // 'fortran_order', 'shape'; keys in any order), the element type (the four above; Fortran order

@@ -147,5 +147,21 @@ TEST(Npy, MakeRejectsMismatchedSizes) {
   EXPECT_THROW(format_npy(a), Error);
 }
 
+TEST(Npy, PositionsAreFloat32FramesJointsXyzScaled) {
+  const fs::path dir = make_temp_dir("npy_positions");
+  const std::string path = (dir / "p.npy").string();
+  std::vector<Eigen::Vector3d> positions;  // 2 frames x 3 joints
+  for (int i = 0; i < 6; ++i) positions.emplace_back(i, 10 * i, 100 * i);
+  write_positions_npy(path, 2, 3, positions, 0.5);
+  const NpyArray a = read_npy(path);
+  EXPECT_EQ(a.dtype, NpyDtype::kFloat32);
+  EXPECT_EQ(a.shape, (std::vector<std::int64_t>{2, 3, 3}));
+  const std::vector<float> v = a.to_float32();
+  EXPECT_FLOAT_EQ(v[(1 * 3 + 2) * 3 + 1], 0.5f * 10 * 5);  // frame 1, joint 2, y
+  EXPECT_FLOAT_EQ(v[(0 * 3 + 1) * 3 + 2], 0.5f * 100 * 1);
+  EXPECT_THROW(write_positions_npy(path, 3, 3, positions), Error);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mosyn::io
