@@ -11,22 +11,11 @@
 #include "core/trajectory.h"
 #include "nn/generator.h"
 #include "nn/model.h"
+#include "nn/standardiser.h"
 
 namespace mosyn::nn {
 
 namespace {
-
-struct Standardiser {
-  torch::Tensor pose_mean, pose_std, ctrl_mean, ctrl_std;
-  explicit Standardiser(const data::DatasetStats& s)
-      : pose_mean(torch::tensor(s.pose_mean)),
-        pose_std(torch::tensor(s.pose_std)),
-        ctrl_mean(torch::tensor(s.control_mean)),
-        ctrl_std(torch::tensor(s.control_std)) {}
-  torch::Tensor control(const torch::Tensor& raw) const { return (raw - ctrl_mean) / ctrl_std; }
-  torch::Tensor pose(const torch::Tensor& raw) const { return (raw - pose_mean) / pose_std; }
-  torch::Tensor unpose(const torch::Tensor& std) const { return std * pose_std + pose_mean; }
-};
 
 torch::Tensor from_vector(const std::vector<float>& v, int64_t rows, int64_t cols) {
   return torch::from_blob(const_cast<float*>(v.data()), {rows, cols}, torch::kFloat32).clone();

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/standardiser.h"
 
 namespace mosyn::nn {
 
@@ -156,9 +157,9 @@ ClassifierOutputs classify_windows(const LoadedRun& run, const std::vector<std::
   out.style_probabilities.assign(poses.size() * out.num_style, 0.f);
   auto params = model->parameters();
   const torch::Device device = params.empty() ? torch::Device(torch::kCPU) : params.front().device();
-  const auto pose_mean = torch::tensor(run.stats.pose_mean), pose_std = torch::tensor(run.stats.pose_std);
-  const auto ctrl_mean = torch::tensor(run.stats.control_mean), ctrl_std = torch::tensor(run.stats.control_std);
-  if (pose_mean.size(0) != d || ctrl_mean.size(0) != c) throw Error(run.run_dir + ": stats do not match the model");
+  const Standardiser standardiser(run.stats);
+  if (standardiser.pose_dim() != d || standardiser.control_dim() != c)
+    throw Error(run.run_dir + ": stats do not match the model");
 
   // Group windows by length, so each batch is one tensor.
   std::map<int64_t, std::vector<size_t>> by_length;
@@ -185,10 +186,10 @@ ClassifierOutputs classify_windows(const LoadedRun& run, const std::vector<std::
         const size_t i = idx[b + k];
         pose[k].copy_(torch::from_blob(const_cast<float*>(poses[i].data()), {t, d}, torch::kFloat32));
         if (!controls.empty() && !controls[i].empty())
-          ctrl[k].copy_((torch::from_blob(const_cast<float*>(controls[i].data()), {t, c}, torch::kFloat32) - ctrl_mean) /
-                        ctrl_std);
+          ctrl[k].copy_(
+              standardiser.control(torch::from_blob(const_cast<float*>(controls[i].data()), {t, c}, torch::kFloat32)));
       }
-      pose = (pose - pose_mean) / pose_std;
+      pose = standardiser.pose(pose);
       const ClassifierImpl::Output o = model->forward(pose.to(device), ctrl.to(device));
       const auto f = o.features.to(torch::kCPU, torch::kFloat32).contiguous();
       const auto pc = torch::softmax(o.content_logits, 1).to(torch::kCPU, torch::kFloat32).contiguous();

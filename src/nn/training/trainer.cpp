@@ -19,6 +19,7 @@
 #include "nn/checkpoint.h"
 #include "nn/model.h"
 #include "nn/run_info.h"
+#include "nn/standardiser.h"
 #include "nn/training/train.h"
 
 namespace mosyn::nn {
@@ -113,13 +114,7 @@ std::vector<Window> enumerate_windows(const std::vector<data::ClipRecord>& clips
 class BatchMaker {
  public:
   BatchMaker(const data::Dataset& ds, int pose_dim, int control_dim, const torch::Device& device)
-      : ds_(ds), d_(pose_dim), c_(control_dim), device_(device) {
-    const auto& s = ds.stats();
-    pose_mean_ = torch::tensor(s.pose_mean);
-    pose_std_ = torch::tensor(s.pose_std);
-    ctrl_mean_ = torch::tensor(s.control_mean);
-    ctrl_std_ = torch::tensor(s.control_std);
-  }
+      : d_(pose_dim), c_(control_dim), device_(device), standardiser_(ds.stats()) {}
 
   Batch make(const std::vector<data::ClipRecord>& clips, const std::vector<Window>& windows, size_t begin,
              size_t count, int window) const {
@@ -138,18 +133,17 @@ class BatchMaker {
       style[i] = clip.style;
     }
     Batch b;
-    b.pose = ((pose - pose_mean_) / pose_std_).to(device_);
-    b.control = ((ctrl - ctrl_mean_) / ctrl_std_).to(device_);
+    b.pose = standardiser_.pose(pose).to(device_);
+    b.control = standardiser_.control(ctrl).to(device_);
     b.content = content.to(device_);
     b.style = style.to(device_);
     return b;
   }
 
  private:
-  const data::Dataset& ds_;
   int d_, c_;
   torch::Device device_;
-  torch::Tensor pose_mean_, pose_std_, ctrl_mean_, ctrl_std_;
+  Standardiser standardiser_;
 };
 
 std::string rng_to_string(const std::mt19937_64& rng) {
