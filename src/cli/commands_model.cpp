@@ -12,7 +12,6 @@
 #include "core/error.h"
 #include "core/kinematics.h"
 #include "data/control.h"
-#include "data/augment.h"
 #include "data/dataset.h"
 #include "data/prepare.h"
 #include "io/atomic_file.h"
@@ -168,7 +167,9 @@ void run_sample(const SampleArgs& a) {
   if (!a.continue_file.empty()) {
     const Clip clip = io::to_clip(io::read_bvh(a.continue_file));
     std::vector<float> pose, control;
-    data::encode_clip_for_dataset(run.dataset, clip, a.continue_file, &pose, &control);
+    // Output in the file's own world placement: where and facing where its motion starts.
+    data::encode_clip_for_dataset(run.dataset, clip, a.continue_file, &pose, &control, &start_position,
+                                  &observed_heading);
     const int frames = static_cast<int>(control.size() / 3);
     observed = a.observed_frames > 0 ? a.observed_frames : static_cast<int>(std::lround(a.observed_s * fps));
     observed = std::max(observed, 1);
@@ -179,9 +180,6 @@ void run_sample(const SampleArgs& a) {
     observed_pose.assign(pose.begin(), pose.begin() + observed * d);
     observed_control.assign(control.begin(), control.begin() + observed * 3);
     own_rest_control.assign(control.begin() + observed * 3, control.end());
-    // Output in the file's own world placement: its start heading and floor position.
-    data::control_from_clip(clip, fps, &observed_heading);
-    start_position = data::collapse_static_root(clip).motion.translation(0, 0);
   }
 
   // The control signal, raw [T, 3].

@@ -355,7 +355,8 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 }
 
 void encode_clip_for_dataset(const DatasetInfo& info, const Clip& raw, const std::string& name,
-                             std::vector<float>* pose, std::vector<float>* control) {
+                             std::vector<float>* pose, std::vector<float>* control, Eigen::Vector3d* start_position,
+                             double* start_heading_rad) {
   Clip clip = clean_clip(raw, name, info.drop_joint_patterns, info.keep_joint_patterns, parse_tpose_mode(info.tpose),
                          info.fps);
   std::string diff = topology_difference(info.skeleton, clip.skeleton);
@@ -366,6 +367,12 @@ void encode_clip_for_dataset(const DatasetInfo& info, const Clip& raw, const std
   if (clip.motion.num_frames < 1) throw Error(name + ": no frames");
   clip.skeleton.meters_per_unit = info.skeleton.meters_per_unit;
   encode(clip.skeleton, clip.motion, info.layout, pose, control);
+  if (start_position || start_heading_rad) {
+    const GroundTrajectory ground =
+        ground_trajectory(clip.skeleton, clip.motion, info.layout.root_joint, info.layout.forward_in_root);
+    if (start_position) *start_position = ground.positions.front();
+    if (start_heading_rad) *start_heading_rad = ground.headings_rad.front();
+  }
 }
 
 void write_synthetic_source(const std::string& dir, int takes_per_label, int num_frames, std::uint64_t seed) {

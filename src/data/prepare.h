@@ -71,9 +71,12 @@ DatasetInfo prepare_dataset(const PrepareOptions& options, const PrepareProgress
 // info.fps), takes the dataset's units and is encoded with info.layout on its own offsets. Writes
 // raw pose [T, pose_dim] and control [T, control_dim] row-major. Throws mosyn::Error prefixed
 // with `name` (e.g. the file path) when its hierarchy differs from the dataset skeleton's or a
-// bone is more than kMaxBoneLengthDeviation off.
+// bone is more than kMaxBoneLengthDeviation off. start_position / start_heading_rad, when given,
+// receive where the encoded motion starts (floor position of its root in skeleton units, and
+// heading), the placement data::decode_features needs to put the motion back where it was.
 void encode_clip_for_dataset(const DatasetInfo& info, const Clip& clip, const std::string& name,
-                             std::vector<float>* pose, std::vector<float>* control);
+                             std::vector<float>* pose, std::vector<float>* control,
+                             Eigen::Vector3d* start_position = nullptr, double* start_heading_rad = nullptr);
 
 // Writes a small Bandai-Namco-like source folder of synthetic walks (core/synthetic.h) for tests
 // and demos: <dir>/cfg/content_label.txt ("dataset-9_walk", "dataset-9_walk-turn-left",
