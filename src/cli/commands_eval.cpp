@@ -287,7 +287,6 @@ struct EvalArgs {
   std::string foot_joints;
   bool no_prediction = false;
   bool no_joint_errors = false;
-  std::string error_frames;
 };
 
 void run_eval(EvalArgs a) {
@@ -303,21 +302,6 @@ void run_eval(EvalArgs a) {
   o.metrics.foot_joints = feet;
   o.prediction = !a.no_prediction;
   o.joint_errors = !a.no_joint_errors;
-  if (!a.error_frames.empty()) {
-    o.error_frames.clear();
-    for (const std::string& f : split_commas(a.error_frames)) {
-      size_t used = 0;
-      int value = -1;
-      try {
-        value = std::stoi(f, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != f.size() || value < 0)
-        throw UsageError("--error-frames: '" + f + "' is not a frame number (expected e.g. 70,90,120,160,210)");
-      o.error_frames.push_back(value);
-    }
-  }
   if (!(o.error_frames_fps > 0)) throw UsageError("--error-fps must be positive");
   if (o.initial_frames < 1) throw UsageError("--initial-frames must be >= 1");
   o.classifier_dir = a.classifier;
@@ -491,8 +475,10 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
                     "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
     cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
-    cmd->add_option("--error-frames", a->error_frames,
-                    "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)");
+    cmd->add_option("--error-frames", a->options.error_frames,
+                    "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
+        ->delimiter(',')
+        ->check(CLI::Range(0, 1000000));
     cmd->add_option("--error-fps", a->options.error_frames_fps,
                     "frame rate the --error-frames are counted at; converted by time (default 60, the paper's)");
     cmd->add_option("--initial-frames", a->options.initial_frames,
