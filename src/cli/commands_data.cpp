@@ -77,6 +77,11 @@ void add_data_commands(CLI::App& app, Action* action) {
   prep->add_option("--form", a->form, "pose form: rotations (joint rotations, writes BVH) or positions")
       ->capture_default_str();
   prep->add_option("--fps", o.fps, "target frame rate (default: keep the files' own)");
+  prep->add_option("--root-smoothing", o.root_smoothing_s,
+                   "standard deviation in seconds of the Gaussian filter on the hip trajectory that becomes the "
+                   "control (MoGlow Sec. 4.1); 0 = raw hip motion, whose gait rhythm models then read from the control")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   prep->add_option("--window", o.window_frames, "training window length in frames")->capture_default_str();
   prep->add_option("--hop", o.window_hop, "frames between window starts (overlap = window - hop)")
       ->capture_default_str();

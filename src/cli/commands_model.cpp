@@ -73,10 +73,12 @@ void run_train(TrainArgs& a) {
   if (given("--device")) o.device = flags.device;
   if (given("--checkpoint-every")) o.checkpoint_every = flags.checkpoint_every;
   if (given("--validate-every")) o.validate_every = flags.validate_every;
+  if (given("--init-from")) o.init_from = flags.init_from;
   o.resume = flags.resume;
   o.overwrite = flags.overwrite;
   if (!a.preset.empty()) o.model_config["preset"] = a.preset;
   if (o.resume && o.overwrite) throw UsageError("--resume and --overwrite exclude each other");
+  if (o.resume && !o.init_from.empty()) throw UsageError("--resume and --init-from exclude each other");
   if (o.steps < 1 || o.batch < 1) throw UsageError("--steps and --batch must be at least 1");
   if (!(o.lr > 0)) throw UsageError("--lr must be positive");
 
@@ -222,6 +224,10 @@ void run_sample(const SampleArgs& a) {
     control = data::control_from_path(path, po, &start_heading);
     control_desc = {{"kind", "path"}, {"path", text}, {"speed_mps", a.speed_mps}};
   }
+  // Paths and files shaped like the run's training controls (its dataset's root smoothing);
+  // dataset clips and the continued file's own motion were encoded with it already.
+  if (!a.path.empty() || !a.control_file.empty() || (a.data_dir.empty() && a.continue_file.empty()))
+    control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
   // --seconds cuts or extends (standing still) controls from files and datasets too.
   if (a.seconds > 0) control.resize(3 * (static_cast<size_t>(a.seconds * fps) + 1), 0.0f);
   const int num_frames = static_cast<int>(control.size() / 3);
@@ -323,6 +329,10 @@ void add_model_commands(CLI::App& app, Action* action) {
   train->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints")->capture_default_str();
   train->add_option("--validate-every", o.validate_every, "steps between validations")->capture_default_str();
   train->add_flag("--resume", o.resume, "continue the run in --out exactly where it stopped");
+  train->add_option("--init-from", o.init_from,
+                    "warm start from a run or shipped model directory of the same family: its weights and model "
+                    "config (overridden by --config/--preset), a fresh optimiser and step count")
+      ->check(CLI::ExistingDirectory);
   train->add_flag("--overwrite", o.overwrite, "replace an existing run in --out");
   train->callback([action, t] { *action = [t] { run_train(*t); }; });
 

@@ -1,5 +1,6 @@
 #include "core/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -31,6 +32,16 @@ std::vector<Eigen::Vector3d> rest_positions(const Skeleton& skeleton) {
     p[j] = parent < 0 ? skeleton.offsets[j] : p[parent] + skeleton.offsets[j];
   }
   return p;
+}
+
+// x[i] for any integer i: beyond the ends, point reflection about the end sample
+// (x[-k] = 2 x[0] - x[k]), clamped to the clip for kernels longer than it.
+template <typename V>
+V extend_by_reflection(const std::vector<V>& x, int i) {
+  const int n = static_cast<int>(x.size());
+  if (i < 0) return 2.0 * x[0] - x[std::min(-i, n - 1)];
+  if (i >= n) return 2.0 * x[n - 1] - x[std::max(2 * (n - 1) - i, 0)];
+  return x[i];
 }
 
 }  // namespace
@@ -139,6 +150,38 @@ GroundTrajectory ground_trajectory(const Skeleton& skeleton, const Motion& motio
       heading += 2 * kPi * std::round((prev - heading) / (2 * kPi));
     }
     out.headings_rad[t] = heading;
+  }
+  return out;
+}
+
+GroundTrajectory smooth_ground_trajectory(const GroundTrajectory& trajectory, double sigma_frames) {
+  const int n = static_cast<int>(trajectory.positions.size());
+  if (static_cast<int>(trajectory.headings_rad.size()) != n)
+    throw Error("smooth_ground_trajectory: positions and headings differ in length");
+  if (!(sigma_frames > 0) || n < 2) return trajectory;
+  if (!(sigma_frames <= 1e4)) throw Error("smooth_ground_trajectory: sigma must be at most 10000 frames");
+  // Truncated at 4 sigma.
+  const int radius = static_cast<int>(std::ceil(4.0 * sigma_frames));
+  std::vector<double> kernel(2 * radius + 1);
+  double total = 0;
+  for (int k = -radius; k <= radius; ++k)
+    total += kernel[k + radius] = std::exp(-0.5 * k * k / (sigma_frames * sigma_frames));
+  for (double& w : kernel) w /= total;
+  const auto& positions = trajectory.positions;
+  const auto& headings = trajectory.headings_rad;
+  GroundTrajectory out;
+  out.positions.assign(n, Eigen::Vector3d::Zero());
+  out.headings_rad.assign(n, 0.0);
+  for (int t = 0; t < n; ++t) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    double h = 0;
+    for (int k = -radius; k <= radius; ++k) {
+      const double w = kernel[k + radius];
+      p += w * extend_by_reflection(positions, t + k);
+      h += w * extend_by_reflection(headings, t + k);
+    }
+    out.positions[t] = p;
+    out.headings_rad[t] = h;
   }
   return out;
 }

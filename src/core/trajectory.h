@@ -60,6 +60,14 @@ double heading_of(const Skeleton& skeleton, const Eigen::Vector3d& direction);
 GroundTrajectory ground_trajectory(const Skeleton& skeleton, const Motion& motion, int root_joint,
                                    const Eigen::Vector3d& forward_in_root);
 
+// Gaussian low-pass of a trajectory (MoGlow Sec. 4.1: "Gaussian-filtering the horizontal,
+// floor-projected hip motion"): positions and unwrapped headings are each convolved with a
+// normalised Gaussian of standard deviation sigma_frames (frames), truncated at 4 sigma. The ends
+// are extended by point reflection (x[-k] = 2 x[0] - x[k]), which keeps the velocity at a clip's
+// first and last frames instead of forcing it to zero as mirror padding would. sigma_frames <= 0
+// returns the trajectory unchanged. The up coordinate stays 0.
+GroundTrajectory smooth_ground_trajectory(const GroundTrajectory& trajectory, double sigma_frames);
+
 // Per-frame deltas of a trajectory ([T] entries, the first all zeros).
 std::vector<RootDelta> root_deltas(const Skeleton& skeleton, const GroundTrajectory& trajectory);
 

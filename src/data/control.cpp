@@ -252,6 +252,25 @@ std::vector<float> control_from_csv(const std::string& path) {
   return control;
 }
 
+std::vector<float> smooth_control(const std::vector<float>& control, double fps, double sigma_s) {
+  if (control.size() % 3 != 0) throw Error("smooth_control: the control must hold [T, 3] values");
+  if (!(sigma_s > 0)) return control;
+  if (!(fps > 0)) throw Error("smooth_control: fps must be positive");
+  const Skeleton y_up;  // metres, Y up: the control's own conventions
+  const size_t n = control.size() / 3;
+  std::vector<RootDelta> deltas(n);
+  for (size_t t = 1; t < n; ++t) deltas[t] = {control[3 * t], control[3 * t + 1], control[3 * t + 2]};
+  const GroundTrajectory raw = integrate_root_deltas(y_up, deltas, Eigen::Vector3d::Zero(), 0.0);
+  const std::vector<RootDelta> smoothed = root_deltas(y_up, smooth_ground_trajectory(raw, sigma_s * fps));
+  std::vector<float> out(control.size(), 0.0f);
+  for (size_t t = 1; t < n; ++t) {
+    out[3 * t + 0] = static_cast<float>(smoothed[t].sideways);
+    out[3 * t + 1] = static_cast<float>(smoothed[t].forward);
+    out[3 * t + 2] = static_cast<float>(smoothed[t].turn_rad);
+  }
+  return out;
+}
+
 std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad) {
   std::vector<Eigen::Vector3d> out;
   Eigen::Vector2d p(0, 0);

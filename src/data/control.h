@@ -49,6 +49,15 @@ std::vector<float> control_from_clip(const Clip& clip, double fps, double* start
 // Control [T, 3] from a CSV with columns dx, dz, dtheta (io/csv.h read_control_csv).
 std::vector<float> control_from_csv(const std::string& path);
 
+// The control re-shaped like the controls of a dataset prepared with root smoothing sigma_s
+// (seconds; FeatureLayout::root_smoothing_s): integrated to a ground trajectory, Gaussian-filtered
+// (core/trajectory.h smooth_ground_trajectory) at fps, and differentiated again. A path of corners
+// and sudden stops becomes one that turns and stops as the smoothed hip trajectories of motion
+// capture do; a control that is already smooth barely changes. The filter keeps the first and
+// last positions and headings, so the path starts and ends where it did. sigma_s <= 0 returns
+// the control unchanged. Throws mosyn::Error when control does not hold whole [3] rows.
+std::vector<float> smooth_control(const std::vector<float>& control, double fps, double sigma_s);
+
 // The ground path (metres, [T] points with the up coordinate 0, Y-up) that a control traces from
 // the origin with the given start heading; used to draw and check paths.
 std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad = 0.0);

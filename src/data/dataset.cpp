@@ -1,6 +1,7 @@
 #include "data/dataset.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iomanip>
@@ -162,7 +163,7 @@ json layout_to_json(const FeatureLayout& l) {
   return {{"form", to_string(l.form)},        {"root_joint", l.root_joint},
           {"forward_in_root", vec3(l.forward_in_root)}, {"pose_dim", l.pose_dim},
           {"control_dim", l.control_dim},     {"pose_names", l.pose_names},
-          {"control_names", l.control_names}};
+          {"control_names", l.control_names}, {"root_smoothing_s", l.root_smoothing_s}};
 }
 
 FeatureLayout layout_from_json(const json& j, const std::string& file) {
@@ -180,6 +181,10 @@ FeatureLayout layout_from_json(const json& j, const std::string& file) {
   l.control_dim = get_key<int>(j, "control_dim", file);
   l.pose_names = get_key<std::vector<std::string>>(j, "pose_names", file);
   l.control_names = get_key<std::vector<std::string>>(j, "control_names", file);
+  // Absent in datasets made before the smoothed control: the raw hip trajectory.
+  l.root_smoothing_s = j.contains("root_smoothing_s") ? get_key<double>(j, "root_smoothing_s", file) : 0.0;
+  if (!(l.root_smoothing_s >= 0 && l.root_smoothing_s <= 10))
+    throw ParseError(file, 0, "layout root_smoothing_s must be between 0 and 10 seconds");
   if (static_cast<int>(l.pose_names.size()) != l.pose_dim || static_cast<int>(l.control_names.size()) != l.control_dim)
     throw ParseError(file, 0, "layout names do not match pose_dim / control_dim");
   return l;
@@ -221,7 +226,8 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
   info.layout = layout_from_json(get_key<json>(j, "layout", file), file);
   try {
     const FeatureLayout expected =
-        make_layout(info.skeleton, info.layout.form, info.layout.root_joint, info.layout.forward_in_root);
+        make_layout(info.skeleton, info.layout.form, info.layout.root_joint, info.layout.forward_in_root,
+                    info.layout.root_smoothing_s);
     if (expected.pose_dim != info.layout.pose_dim || expected.control_dim != info.layout.control_dim)
       throw Error("layout dims (" + std::to_string(info.layout.pose_dim) + ", " + std::to_string(info.layout.control_dim) +
                   ") do not match the skeleton (" + std::to_string(expected.pose_dim) + ", " +
@@ -477,6 +483,14 @@ Clip decode_record(const DatasetInfo& info, const ClipRecord& record) {
   return decode_features(info, record.pose.data(), record.control.data(), record.num_frames);
 }
 
+namespace {
+std::string format_seconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.3g s", s);
+  return buf;
+}
+}  // namespace
+
 std::string dataset_summary(const Dataset& dataset) {
   const DatasetInfo& info = dataset.info();
   std::ostringstream out;
@@ -487,6 +501,10 @@ std::string dataset_summary(const Dataset& dataset) {
       << ", " << std::setprecision(6) << info.skeleton.meters_per_unit << " m/unit\n";
   out << "features:    " << to_string(info.layout.form) << ", pose " << info.layout.pose_dim << " + control "
       << info.layout.control_dim << "\n";
+  out << "control:     "
+      << (info.layout.smoothed_root() ? "Gaussian-filtered hip trajectory, sigma " + format_seconds(info.layout.root_smoothing_s)
+                                      : std::string("raw hip trajectory"))
+      << "\n";
   out << "window:      " << info.window_frames << " frames, hop " << info.window_hop << "\n";
   out << "augment:     mirror " << (info.augment_mirror ? "yes" : "no") << ", reverse "
       << (info.augment_reverse ? "yes" : "no") << "\n";

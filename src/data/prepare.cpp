@@ -275,7 +275,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   info.version = 1;
   info.fps = clips[0].motion.fps;
   info.skeleton = skeleton;
-  info.layout = make_layout(skeleton, o.form, 0, estimate_forward_in_root(skeleton));
+  info.layout = make_layout(skeleton, o.form, 0, estimate_forward_in_root(skeleton), o.root_smoothing_s);
   info.window_frames = o.window_frames;
   info.window_hop = o.window_hop;
   info.source_dirs = o.input_dirs;
@@ -368,8 +368,7 @@ void encode_clip_for_dataset(const DatasetInfo& info, const Clip& raw, const std
   clip.skeleton.meters_per_unit = info.skeleton.meters_per_unit;
   encode(clip.skeleton, clip.motion, info.layout, pose, control);
   if (start_position || start_heading_rad) {
-    const GroundTrajectory ground =
-        ground_trajectory(clip.skeleton, clip.motion, info.layout.root_joint, info.layout.forward_in_root);
+    const GroundTrajectory ground = control_trajectory(clip.skeleton, clip.motion, info.layout);
     if (start_position) *start_position = ground.positions.front();
     if (start_heading_rad) *start_heading_rad = ground.headings_rad.front();
   }

@@ -27,11 +27,19 @@ namespace mosyn::data {
 // subjects differ by ~10%; more suggests a different skeleton or unit).
 constexpr double kMaxBoneLengthDeviation = 0.25;
 
+// Default PrepareOptions::root_smoothing_s. The MoGlow authors' preparation used 4 frames at 20
+// fps (0.2 s); measured on Bandai-Namco locomotion (scripts/control_rhythm.py), 0.2 s leaves a third
+// of the raw control's step-rate oscillation in dx and dtheta, 0.35 s a tenth, 0.5 s a twentieth.
+constexpr double kDefaultRootSmoothingS = 0.35;
+
 struct PrepareOptions {
   std::vector<std::string> input_dirs;  // source folders (data/labels.h layouts), at least one
   std::string output_dir;
   double fps = 0;                       // target frame rate, 0 = keep the files' own (must agree)
   PoseForm form = PoseForm::kRotations;
+  // Gaussian filter (seconds, standard deviation) of the hip trajectory that becomes the
+  // control (FeatureLayout::root_smoothing_s); 0 = the raw hip motion.
+  double root_smoothing_s = kDefaultRootSmoothingS;
   std::vector<std::string> drop_joint_patterns;  // glob patterns of joints to drop (e.g. "*Thumb*")
   std::vector<std::string> keep_joint_patterns;  // if non-empty, only matching joints (+ the root)
   int window_frames = 120;              // training window length, frames at the target fps

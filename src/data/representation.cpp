@@ -1,6 +1,8 @@
 #include "data/representation.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/error.h"
@@ -26,7 +28,7 @@ void check_layout(const Skeleton& skeleton, const FeatureLayout& layout) {
   if (layout.root_joint < 0 || layout.root_joint >= num_joints)
     throw Error("feature layout: root joint " + std::to_string(layout.root_joint) + " is not a joint of a " +
                 std::to_string(num_joints) + "-joint skeleton");
-  const int expected = layout.form == PoseForm::kRotations ? 1 + 6 * num_joints : 3 * num_joints;
+  const int expected = expected_pose_dim(layout.form, num_joints, layout.smoothed_root());
   if (layout.pose_dim != expected)
     throw Error("feature layout: pose_dim " + std::to_string(layout.pose_dim) + " does not match the skeleton (" +
                 std::to_string(expected) + " for " + std::to_string(num_joints) + " joints in " + to_string(layout.form) +
@@ -65,6 +67,12 @@ void constraining_descendants(const Skeleton& skeleton, const std::vector<std::v
   }
 }
 
+// The two floor axes (not up) in increasing order: x, z for Y-up.
+std::array<int, 2> floor_axes(const Skeleton& skeleton) {
+  const int a = (skeleton.up_axis + 1) % 3, b = (skeleton.up_axis + 2) % 3;
+  return {std::min(a, b), std::max(a, b)};
+}
+
 // True when the vectors span at least two directions.
 bool spans_plane(const std::vector<Eigen::Vector3d>& v) {
   for (size_t i = 0; i < v.size(); ++i)
@@ -83,9 +91,22 @@ PoseForm parse_pose_form(const std::string& text) {
   throw Error("unknown pose form '" + text + "' (expected rotations or positions)");
 }
 
+int expected_pose_dim(PoseForm form, int num_joints, bool smoothed_root) {
+  return form == PoseForm::kRotations ? 1 + 6 * num_joints + (smoothed_root ? 2 : 0) : 3 * num_joints;
+}
+
+GroundTrajectory control_trajectory(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout) {
+  const GroundTrajectory raw = ground_trajectory(skeleton, motion, layout.root_joint, layout.forward_in_root);
+  if (!layout.smoothed_root()) return raw;
+  return smooth_ground_trajectory(raw, layout.root_smoothing_s * motion.fps);
+}
+
 FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_joint,
-                          const Eigen::Vector3d& forward_in_root) {
+                          const Eigen::Vector3d& forward_in_root, double root_smoothing_s) {
   skeleton.validate();
+  if (!(root_smoothing_s >= 0 && root_smoothing_s <= 10))
+    throw Error("feature layout: root smoothing must be between 0 and 10 seconds, not " +
+                std::to_string(root_smoothing_s));
   if (root_joint < 0 || root_joint >= skeleton.num_joints())
     throw Error("feature layout: root joint " + std::to_string(root_joint) + " is not a joint of a " +
                 std::to_string(skeleton.num_joints()) + "-joint skeleton");
@@ -103,6 +124,9 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
     add_r6d(root_joint, ".heading_r6d");
     for (int j = 0; j < num_joints; ++j)
       if (j != root_joint) add_r6d(j, ".r6d");
+    if (root_smoothing_s > 0)
+      for (int axis : floor_axes(skeleton))
+        layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".offset_" + "xyz"[axis] + "_m");
   } else {
     static const char* kAxes[3] = {".x_m", ".y_m", ".z_m"};
     for (int j = 0; j < num_joints; ++j)
@@ -111,6 +135,7 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
   layout.pose_dim = static_cast<int>(layout.pose_names.size());
   layout.control_dim = 3;
   layout.control_names = {"dx_m", "dz_m", "dtheta_rad"};
+  layout.root_smoothing_s = root_smoothing_s;
   check_layout(skeleton, layout);
   return layout;
 }
@@ -126,8 +151,9 @@ void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout&
   const int root = layout.root_joint;
   const double mpu = skeleton.meters_per_unit;
   const WorldPoses world = forward_kinematics(skeleton, motion);
-  const GroundTrajectory ground = ground_trajectory(skeleton, motion, root, layout.forward_in_root);
+  const GroundTrajectory ground = control_trajectory(skeleton, motion, layout);
   const std::vector<RootDelta> deltas = root_deltas(skeleton, ground);
+  const std::array<int, 2> floor = floor_axes(skeleton);
 
   pose->assign(static_cast<size_t>(num_frames) * layout.pose_dim, 0.0f);
   control->assign(static_cast<size_t>(num_frames) * layout.control_dim, 0.0f);
@@ -150,6 +176,11 @@ void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout&
         const Vector6d lr = rot6d_from_quat(motion.rotation(t, j));
         for (int k = 0; k < 6; ++k) p[slot + k] = static_cast<float>(lr[k]);
         slot += 6;
+      }
+      if (layout.smoothed_root()) {
+        const Eigen::Vector3d offset = heading_inv * (world.position(t, root) - ground.positions[t]) * mpu;
+        p[slot] = static_cast<float>(offset[floor[0]]);
+        p[slot + 1] = static_cast<float>(offset[floor[1]]);
       }
     } else {
       const Eigen::Vector3d origin = ground.positions[t];
@@ -180,6 +211,7 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
       integrate_root_deltas(skeleton, deltas, floor_projection(skeleton, start_position), start_heading_rad);
 
   Motion motion = Motion::rest(skeleton, num_frames, fps);
+  const std::array<int, 2> floor = floor_axes(skeleton);
   const std::vector<std::vector<int>> children = [&] {
     std::vector<std::vector<int>> out(num_joints);
     for (int j = 1; j < num_joints; ++j) out[skeleton.parents[j]].push_back(j);
@@ -201,8 +233,15 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
         slot += 6;
       }
       for (int k = 0; k < 6; ++k) r[k] = p[1 + k];
-      const Eigen::Quaterniond root_world = heading_rotation(skeleton, ground.headings_rad[t]) * quat_from_rot6d(r);
-      const Eigen::Vector3d root_pos = ground.positions[t] + up_vector(skeleton) * (p[0] / mpu);
+      const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
+      const Eigen::Quaterniond root_world = heading * quat_from_rot6d(r);
+      Eigen::Vector3d root_pos = ground.positions[t] + up_vector(skeleton) * (p[0] / mpu);
+      if (layout.smoothed_root()) {
+        Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+        offset[floor[0]] = p[slot] / mpu;
+        offset[floor[1]] = p[slot + 1] / mpu;
+        root_pos += heading * offset;
+      }
       // Joints above the trajectory joint (none once a static root is collapsed) keep their
       // decoded rotations and rest offsets; the trajectory joint is placed in their frame.
       const int parent = skeleton.parents[root];

@@ -1,12 +1,14 @@
 // Feature representations of motion: how a clip becomes per-frame vectors for learning and how
 // vectors become a clip again. Both forms use the same control signal, the per-frame root
-// deltas of core/trajectory.h: control[t] = (dx, dz, dtheta) in metres and radians.
+// deltas of core/trajectory.h: control[t] = (dx, dz, dtheta) in metres and radians, of the
+// floor-projected hip trajectory, Gaussian-filtered (MoGlow Sec. 4.1) when the layout says so.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "core/skeleton.h"
+#include "core/trajectory.h"
 
 namespace mosyn::data {
 
@@ -32,29 +34,51 @@ struct FeatureLayout {
   int control_dim = 3;
   std::vector<std::string> pose_names;     // [pose_dim] human-readable names, e.g. "Hips.r6d0"
   std::vector<std::string> control_names;  // {"dx_m", "dz_m", "dtheta_rad"}
+  // Standard deviation (seconds) of the Gaussian filter applied to the hip's floor trajectory
+  // and heading before they become the control (core/trajectory.h smooth_ground_trajectory).
+  // 0 = the raw hip trajectory (datasets made before this option). With smoothing, the control
+  // carries the path but not the gait's rhythm; what the hips do around the smoothed path (sway,
+  // bob, yaw oscillation) is in the pose features instead (layouts below).
+  double root_smoothing_s = 0.0;
+  bool smoothed_root() const { return root_smoothing_s > 0; }
 };
 
 // Exact layouts (J joints, r = root_joint, headings and deltas from core/trajectory.h):
+//   Trajectory (position p_t on the floor, heading theta_t): the hip joint r's floor projection
+//               and heading (core/trajectory.h ground_trajectory), Gaussian-filtered with
+//               sigma = root_smoothing_s * fps frames when root_smoothing_s > 0.
 //   kRotations  pose[t] = [height of joint r above the floor in metres (1),
-//                          6D of joint r's world rotation relative to its heading frame,
+//                          6D of joint r's world rotation relative to the trajectory heading,
 //                          i.e. heading_rotation(theta_t)^-1 * R_world(r) (6),
-//                          6D local rotation of every other joint, in joint order (6 (J - 1))]
-//               pose_dim = 1 + 6 J. Joints other than the skeleton's root whose translations
+//                          6D local rotation of every other joint, in joint order (6 (J - 1)),
+//                          only when smoothed: joint r's floor position minus p_t, rotated by
+//                          heading_rotation(theta_t)^-1, its two floor coordinates in axis order
+//                          (x, z for Y-up), metres (2)]
+//               pose_dim = 1 + 6 J (+ 2 when smoothed). Joints other than the skeleton's root whose translations
 //               are animated lose that animation: decode uses their rest offsets (Bandai-Namco's
 //               non-Hips position channels equal their offsets, so nothing is lost there).
-//   kPositions  pose[t] = [world position of joint j minus the floor-projected position of
-//                          joint r, rotated by heading_rotation(theta_t)^-1, metres (3)] for
-//                          j = 0..J-1; joint r's own entry is (0, height, 0) for Y-up.
+//   kPositions  pose[t] = [world position of joint j minus the trajectory position p_t,
+//                          rotated by heading_rotation(theta_t)^-1, metres (3)] for
+//                          j = 0..J-1; joint r's own entry is (0, height, 0) for Y-up on the raw
+//                          trajectory, (sway, height, forward offset) on a smoothed one.
 //               pose_dim = 3 J.
-//   control[t] = (dx, dz in metres, dtheta in radians): RootDelta moving frame t-1 to frame t
-//                in the ground frame of t-1; control[0] = 0.
+//   control[t] = (dx, dz in metres, dtheta in radians): RootDelta of the trajectory moving
+//                frame t-1 to frame t in the ground frame of t-1; control[0] = 0.
 // 6D vectors are rot6d_from_quat (core/rotation.h): the first two matrix columns.
 //
 // Layout for a skeleton in a given form. Names: "<joint>.height_m", "<joint>.heading_r6d<k>",
-// "<joint>.r6d<k>", "<joint>.x_m" / ".y_m" / ".z_m". Throws mosyn::Error for a root_joint out of
-// range or a zero forward_in_root (normalised otherwise).
+// "<joint>.r6d<k>", "<joint>.x_m" / ".y_m" / ".z_m", "<joint>.offset_x_m" / ".offset_z_m".
+// Throws mosyn::Error for a root_joint out of range, a zero forward_in_root (normalised
+// otherwise) or a root_smoothing_s outside [0, 10] seconds.
 FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_joint,
-                          const Eigen::Vector3d& forward_in_root);
+                          const Eigen::Vector3d& forward_in_root, double root_smoothing_s = 0.0);
+
+// Pose dimensions of a layout's form on a skeleton of num_joints joints.
+int expected_pose_dim(PoseForm form, int num_joints, bool smoothed_root);
+
+// The trajectory a layout encodes a motion against (see the layouts above): the hip joint's
+// floor path and heading, smoothed with the layout's root_smoothing_s at motion.fps.
+GroundTrajectory control_trajectory(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout);
 
 // Encodes a clip: pose [T, pose_dim] and control [T, control_dim], row-major float32, raw (not
 // standardised). Uses skeleton.meters_per_unit for metres. Throws mosyn::Error when the motion,

@@ -180,8 +180,10 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     result.clip_indices.push_back(chosen[i]);
     real.push_back(motion_positions(data::decode_record(info, rec), 0.0, rec.source));
     nn::SampleExtras extras;
-    extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
-    extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+    if (run.model->takes_labels()) {  // the clip's own labels, when the model is conditioned on labels
+      extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
+      extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+    }
     extras.warmup_frames = warmup_frames;
     auto poses = nn::sample_motions(run, rec.control, n, o.seed + i, o.temperature, extras);
     std::vector<MotionPositions> mine;
@@ -234,8 +236,10 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     nn::SampleExtras extras;
     extras.prefix_pose = rows_of(rec.pose, 0, p, d);
     extras.prefix_control = rows_of(rec.control, 0, p, c);
-    extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
-    extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+    if (run.model->takes_labels()) {  // the clip's own labels, when the model is conditioned on labels
+      extras.content = label_for_run(rec.content, info.content_labels, run.dataset.content_labels);
+      extras.style = label_for_run(rec.style, info.style_labels, run.dataset.style_labels);
+    }
     const std::vector<float> control = rows_of(rec.control, 0, end, c);
     std::vector<Eigen::MatrixXd> out;
     for (const auto& future : nn::sample_motions(run, rows_of(rec.control, p, end, c), n, seed, o.temperature, extras)) {

@@ -6,6 +6,7 @@
 
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "nn/model.h"
 
@@ -33,5 +34,23 @@ void narrow_to_half(MotionModel& model);
 // naming path when the file is missing, truncated, corrupt or does not fit the model.
 CheckpointState load_checkpoint(const std::string& path, MotionModel& model, torch::optim::Optimizer* optimizer,
                                 const torch::Device& device);
+
+// What init_from_checkpoint did with the model's tensors.
+struct InitReport {
+  int step = 0;                       // optimiser steps of the checkpoint
+  int copied = 0;                     // tensors copied exactly (same name and shape)
+  std::vector<std::string> grown;     // tensors larger by one dimension than the stored ones:
+                                      // the stored block copied, the new part zero (e.g. the input
+                                      // weights of a condition added since, which then starts
+                                      // with no effect)
+  std::vector<std::string> missing;   // tensors not in the checkpoint or of another shape: left
+                                      // as initialised
+};
+
+// Warm start (mosyn train --init-from): copies a checkpoint's model tensors into a freshly built
+// model of the same family, tolerating architecture changes as InitReport describes. Optimiser
+// state and step are not taken. Throws mosyn::Error naming path when the file is missing,
+// corrupt or of another family.
+InitReport init_from_checkpoint(const std::string& path, MotionModel& model, const torch::Device& device);
 
 }  // namespace mosyn::nn

@@ -20,6 +20,12 @@ inline int config_int(const nlohmann::json& config, const char* key, const char*
   return config.at(key).get<int>();
 }
 
+// config[key] as a boolean; throws mosyn::Error "<family> config: '<key>' must be true or false".
+inline bool config_bool(const nlohmann::json& config, const char* key, const char* family) {
+  if (!config.at(key).is_boolean()) throw Error(std::string(family) + " config: '" + key + "' must be true or false");
+  return config.at(key).get<bool>();
+}
+
 // config[key] as a number (integers accepted); throws mosyn::Error naming family and key.
 inline double config_double(const nlohmann::json& config, const char* key, const char* family) {
   if (!config.at(key).is_number()) throw Error(std::string(family) + " config: '" + key + "' must be a number");

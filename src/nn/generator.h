@@ -23,6 +23,10 @@ struct GeneratorOptions {
   double temperature = 1.0; // latent standard deviation multiplier
   std::vector<float> prefix_pose;     // optional raw [P, D] (shared by all characters)
   std::vector<float> prefix_control;  // optional raw [P, C]
+  // Per-character labels (index into the run's content / style vocabularies, -1 = none): empty =
+  // none for everyone, one entry = the same for everyone, else one entry per character. Only for
+  // models that take labels (MotionModel::takes_labels); an unknown index is an error.
+  std::vector<int> content, style;
   int warmup_frames = 0;     // frames of standing generated and dropped at (re)start, so the first
                             // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };

@@ -95,6 +95,10 @@ class MotionModel : public torch::nn::Module {
   // natural (the recurrent VAE, whose first latent comes from the prior or the posterior).
   virtual double default_warmup_s() const { return 0.0; }
 
+  // True when content and style labels of SampleRequest / Batch condition the motion; a family
+  // that ignores labels refuses requests that carry them (nn/sampling.h).
+  virtual bool takes_labels() const { return false; }
+
   // Causal models support frame-by-frame generation with no algorithmic latency.
   virtual bool supports_streaming() const { return false; }
   // Starts a stream from the request's prefix, labels, temperature and seed (request.control is

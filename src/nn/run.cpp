@@ -42,7 +42,81 @@ void load_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
     load_module(*child.value(), child_archive);
   }
 }
+// Copies what fits from a stored tensor into target (see init_from_checkpoint); returns how.
+enum class Fit { kExact, kGrown, kSkipped };
+Fit copy_what_fits(torch::Tensor& target, const torch::Tensor& stored) {
+  if (stored.sizes() == target.sizes()) {
+    target.copy_(stored);
+    return Fit::kExact;
+  }
+  if (stored.dim() != target.dim() || stored.dim() == 0) return Fit::kSkipped;
+  int grown = -1;
+  for (int64_t k = 0; k < stored.dim(); ++k) {
+    if (stored.size(k) == target.size(k)) continue;
+    if (stored.size(k) > target.size(k) || grown >= 0) return Fit::kSkipped;
+    grown = static_cast<int>(k);
+  }
+  target.zero_();
+  target.narrow(grown, 0, stored.size(grown)).copy_(stored);
+  return Fit::kGrown;
+}
+
+void init_module(torch::nn::Module& module, torch::serialize::InputArchive& archive, const std::string& prefix,
+                 InitReport* report) {
+  torch::NoGradGuard no_grad;
+  auto take = [&](torch::Tensor& target, const std::string& key, bool is_buffer) {
+    torch::Tensor stored;
+    const std::string name = prefix + key;
+    if (!archive.try_read(key, stored, is_buffer)) {
+      report->missing.push_back(name);
+      return;
+    }
+    switch (copy_what_fits(target, stored.to(target.dtype()))) {
+      case Fit::kExact: ++report->copied; break;
+      case Fit::kGrown: report->grown.push_back(name); break;
+      case Fit::kSkipped: report->missing.push_back(name); break;
+    }
+  };
+  for (auto& p : module.named_parameters(/*recurse=*/false)) take(p.value(), p.key(), false);
+  for (auto& b : module.named_buffers(/*recurse=*/false)) take(b.value(), b.key(), true);
+  for (auto& child : module.named_children()) {
+    torch::serialize::InputArchive child_archive;
+    if (!archive.try_read(child.key(), child_archive)) {
+      report->missing.push_back(prefix + child.key() + ".*");
+      continue;
+    }
+    init_module(*child.value(), child_archive, prefix + child.key() + ".", report);
+  }
+}
+
 }  // namespace
+
+InitReport init_from_checkpoint(const std::string& path, MotionModel& model, const torch::Device& device) {
+  const std::string bytes = io::read_file(path);
+  InitReport report;
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(bytes.data(), bytes.size(), device);
+    c10::IValue v;
+    if (!archive.try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)
+      throw Error("not a mosyn checkpoint");
+    if (!archive.try_read("family", v) || v.toStringRef() != model.family())
+      throw Error("checkpoint is of family '" + (v.isString() ? v.toStringRef() : std::string("?")) +
+                  "', expected '" + model.family() + "'");
+    archive.read("step", v);
+    report.step = static_cast<int>(v.toInt());
+    torch::serialize::InputArchive model_archive;
+    archive.read("model", model_archive);
+    init_module(model, model_archive, "", &report);
+  } catch (const Error& e) {
+    throw Error(path + ": cannot initialise from this checkpoint: " + e.what());
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
+    throw Error(path + ": corrupt or truncated checkpoint (" + msg + ")");
+  }
+  return report;
+}
 
 void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
                      const CheckpointState& state) {

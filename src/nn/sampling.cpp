@@ -26,10 +26,29 @@ torch::Device model_device(MotionModel& m) {
   return params.empty() ? torch::Device(torch::kCPU) : params.front().device();
 }
 
+// Labels [b] from none, one label for all, or one per entry; checked against the run.
+torch::Tensor label_tensor(const LoadedRun& run, const std::vector<int>& labels, int64_t b, int vocabulary,
+                           const char* what) {
+  if (!labels.empty() && labels.size() != 1 && static_cast<int64_t>(labels.size()) != b)
+    throw Error(std::string(what) + " labels: give none, one, or one per character (" + std::to_string(b) + ")");
+  std::vector<int64_t> ids(static_cast<size_t>(b), -1);
+  for (int64_t i = 0; i < b && !labels.empty(); ++i) ids[i] = labels.size() == 1 ? labels[0] : labels[i];
+  for (int64_t id : ids) {
+    if (id == -1) continue;
+    if (!run.model->takes_labels())
+      throw Error(run.run_dir + ": this " + run.family + " model was trained without labels; a " + what +
+                  " label needs a model trained with \"labels\": true");
+    if (id < 0 || id >= vocabulary)
+      throw Error(run.run_dir + ": " + what + " label " + std::to_string(id) + " is not in the model's vocabulary of " +
+                  std::to_string(vocabulary));
+  }
+  return torch::tensor(ids, torch::kInt64);
+}
+
 // Fills the prefix and label fields of a request for batch size b.
 void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& st, int64_t b,
-                  const std::vector<float>& prefix_pose, const std::vector<float>& prefix_control, int content,
-                  int style) {
+                  const std::vector<float>& prefix_pose, const std::vector<float>& prefix_control,
+                  const std::vector<int>& content, const std::vector<int>& style) {
   const int64_t d = run.context.pose_dim, c = run.context.control_dim;
   if (!prefix_pose.empty()) {
     if (prefix_pose.size() % d != 0) throw Error("prefix pose is not [P, " + std::to_string(d) + "]");
@@ -41,8 +60,8 @@ void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& 
       req.prefix_control = st.control(from_vector(prefix_control, p, c)).unsqueeze(0).expand({b, p, c}).contiguous();
     }
   }
-  req.content = torch::full({b}, static_cast<int64_t>(content), torch::kInt64);
-  req.style = torch::full({b}, static_cast<int64_t>(style), torch::kInt64);
+  req.content = label_tensor(run, content, b, run.context.num_content, "content");
+  req.style = label_tensor(run, style, b, run.context.num_style, "style");
   req.batch = static_cast<int>(b);
 }
 
@@ -69,7 +88,7 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
   SampleRequest req;
   req.control =
       st.control(from_vector(full_control, w + t, c)).unsqueeze(0).expand({n, w + t, c}).contiguous().to(device);
-  fill_request(req, run, st, n, extras.prefix_pose, extras.prefix_control, extras.content, extras.style);
+  fill_request(req, run, st, n, extras.prefix_pose, extras.prefix_control, {extras.content}, {extras.style});
   if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
   if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
   req.content = req.content.to(device);
@@ -111,7 +130,8 @@ struct Generator::Impl {
 
   void start(std::uint64_t seed) {
     SampleRequest req;
-    fill_request(req, run, st, options.batch, options.prefix_pose, options.prefix_control, -1, -1);
+    fill_request(req, run, st, options.batch, options.prefix_pose, options.prefix_control, options.content,
+                 options.style);
     if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
     if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
     req.content = req.content.to(device);

@@ -342,4 +342,57 @@ TEST(Trajectory, RealDataCmuWalkGoesForward) {
 }
 
 }  // namespace
+// Gaussian smoothing against a brute-force convolution of the point-reflected signal.
+TEST(Trajectory, SmoothingMatchesBruteForceConvolution) {
+  GroundTrajectory g;
+  const int n = 50;
+  for (int t = 0; t < n; ++t) {
+    g.positions.emplace_back(0.3 * t + 0.05 * std::sin(2.0 * t), 0.0, 0.1 * t * t / n);
+    g.headings_rad.push_back(0.02 * t + 0.1 * std::cos(1.3 * t));
+  }
+  const double sigma = 3.0;
+  const GroundTrajectory s = smooth_ground_trajectory(g, sigma);
+  ASSERT_EQ(s.positions.size(), g.positions.size());
+  auto reflected = [&](const std::vector<double>& x, int i) {
+    if (i < 0) return 2 * x[0] - x[-i];
+    if (i >= n) return 2 * x[n - 1] - x[2 * (n - 1) - i];
+    return x[i];
+  };
+  std::vector<double> px, pz;
+  for (const auto& p : g.positions) {
+    px.push_back(p.x());
+    pz.push_back(p.z());
+  }
+  const int radius = 12;
+  for (int t = 0; t < n; ++t) {
+    double wsum = 0, x = 0, z = 0, h = 0;
+    for (int k = -radius; k <= radius; ++k) {
+      const double w = std::exp(-0.5 * k * k / (sigma * sigma));
+      wsum += w;
+      x += w * reflected(px, t + k);
+      z += w * reflected(pz, t + k);
+      h += w * reflected(g.headings_rad, t + k);
+    }
+    EXPECT_NEAR(s.positions[t].x(), x / wsum, 1e-12);
+    EXPECT_NEAR(s.positions[t].z(), z / wsum, 1e-12);
+    EXPECT_EQ(s.positions[t].y(), 0.0);
+    EXPECT_NEAR(s.headings_rad[t], h / wsum, 1e-12);
+  }
+  // Point reflection keeps the ends exactly and a straight line unchanged.
+  EXPECT_NEAR((s.positions.front() - g.positions.front()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.positions.back() - g.positions.back()).norm(), 0.0, 1e-12);
+  GroundTrajectory line;
+  for (int t = 0; t < 20; ++t) {
+    line.positions.emplace_back(0.04 * t, 0.0, -0.02 * t);
+    line.headings_rad.push_back(0.01 * t);
+  }
+  const GroundTrajectory same = smooth_ground_trajectory(line, 4.0);
+  for (int t = 0; t < 20; ++t) {
+    EXPECT_NEAR((same.positions[t] - line.positions[t]).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(same.headings_rad[t], line.headings_rad[t], 1e-12);
+  }
+  EXPECT_THROW(smooth_ground_trajectory(g, 1e5), Error);
+  EXPECT_EQ(smooth_ground_trajectory(g, 0.0).positions[3], g.positions[3]);
+}
+
 }  // namespace mosyn

@@ -99,4 +99,30 @@ TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
 }
 
 }  // namespace
+// A user's path re-shaped like the smoothed training controls: it starts and ends where it did,
+// turns less abruptly at a corner, and still stands still once stopped.
+TEST(ControlTest, SmoothControlKeepsThePathEndsAndSoftensCorners) {
+  PathOptions o;
+  o.fps = 20;
+  o.corner_radius_m = 0.0;  // a sharp corner
+  o.accel_s = 0.0;          // and a sudden start and stop
+  double heading = 0;
+  const std::vector<float> raw = control_from_path(parse_path("0,0 0,3 3,3"), o, &heading);
+  const std::vector<float> smooth = smooth_control(raw, o.fps, 0.35);
+  ASSERT_EQ(smooth.size(), raw.size());
+  const auto a = integrate_control(raw, heading), b = integrate_control(smooth, heading);
+  EXPECT_LT((a.back() - b.back()).norm(), 1e-4);
+  EXPECT_EQ(smooth[0], 0.0f);
+  auto max_abs = [](const std::vector<float>& c, int k) {
+    double m = 0;
+    for (size_t t = 0; t < c.size() / 3; ++t) m = std::max(m, std::abs(static_cast<double>(c[3 * t + k])));
+    return m;
+  };
+  EXPECT_LT(max_abs(smooth, 2), 0.5 * max_abs(raw, 2));
+  // The last frames stand still (the path ends with a second of standing).
+  for (size_t t = smooth.size() / 3 - 3; t < smooth.size() / 3; ++t) EXPECT_NEAR(smooth[3 * t + 1], 0.0, 1e-3);
+  EXPECT_EQ(smooth_control(raw, o.fps, 0.0), raw);
+  EXPECT_THROW(smooth_control({1.0f, 2.0f}, 20, 0.35), Error);
+}
+
 }  // namespace mosyn::data

@@ -41,6 +41,28 @@ DatasetInfo make_info() {
   return info;
 }
 
+// A dataset records its control; datasets written before the smoothed control (no
+// root_smoothing_s key) read as the raw hip trajectory, with the old pose dimensions.
+TEST(Dataset, LayoutRecordsTheControlAndOldDatasetsStillLoad) {
+  DatasetInfo info = make_info();
+  info.layout = make_layout(info.skeleton, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1), 0.35);
+  nlohmann::json j = info_to_json(info);
+  EXPECT_DOUBLE_EQ(j["layout"]["root_smoothing_s"].get<double>(), 0.35);
+  EXPECT_EQ(info_from_json(j, "d.json").layout.pose_dim, 129);
+  DatasetInfo old = make_info();
+  old.layout = make_layout(old.skeleton, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1));
+  nlohmann::json jo = info_to_json(old);
+  jo["layout"].erase("root_smoothing_s");
+  const DatasetInfo back = info_from_json(jo, "old.json");
+  EXPECT_EQ(back.layout.root_smoothing_s, 0.0);
+  EXPECT_EQ(back.layout.pose_dim, 127);
+  jo["layout"]["root_smoothing_s"] = -1;
+  EXPECT_THROW(info_from_json(jo, "bad.json"), ParseError);
+  // A smoothed layout's dims with the key removed no longer fit the skeleton: named error.
+  j["layout"].erase("root_smoothing_s");
+  EXPECT_THROW(info_from_json(j, "d.json"), ParseError);
+}
+
 TEST(Dataset, CacheRoundTripAndCorruption) {
   const int dim = 63;
   std::vector<ClipRecord> clips = {make_record("data/a.bvh", 5, dim, 1.0f), make_record("data/ü.bvh", 0, dim, 2.0f)};

@@ -81,7 +81,8 @@ TEST(Prepare, EndToEndRotations) {
 
   EXPECT_EQ(info.skeleton.joint_names[0], "Hips");  // static joint_Root collapsed
   EXPECT_EQ(info.skeleton.num_joints(), 21);
-  EXPECT_EQ(info.layout.pose_dim, 1 + 6 * 21);
+  EXPECT_EQ(info.layout.pose_dim, 1 + 6 * 21 + 2);  // + the hips' offset from the smoothed root
+  EXPECT_DOUBLE_EQ(info.layout.root_smoothing_s, kDefaultRootSmoothingS);
   EXPECT_NEAR(info.skeleton.meters_per_unit, 0.01, 1e-12);
   EXPECT_EQ(info.content_labels, (std::vector<std::string>{"walk", "walk-turn-left", "walk-turn-right", "run"}));
   EXPECT_EQ(info.style_labels, (std::vector<std::string>{"normal", "brisk"}));
@@ -129,7 +130,7 @@ TEST(Prepare, EndToEndRotations) {
   EXPECT_LT(worst, 1e-2);  // centimetres
   const std::string summary = dataset_summary(d);
   EXPECT_NE(summary.find("walk-turn-left"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("rotations, pose 127 + control 3"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("rotations, pose 129 + control 3"), std::string::npos) << summary;
 
   // Refuses to overwrite unless asked.
   EXPECT_THROW(prepare_dataset(o), Error);
@@ -288,7 +289,7 @@ TEST(RealDataPrepare, BandaiLocomotionSubsetAndCmuWalks) {
   const DatasetInfo info = prepare_dataset(o);
   EXPECT_EQ(info.skeleton.joint_names[0], "Hips");
   EXPECT_EQ(info.skeleton.num_joints(), 21);
-  EXPECT_EQ(info.layout.pose_dim, 127);
+  EXPECT_EQ(info.layout.pose_dim, 129);
   EXPECT_NEAR(info.skeleton.meters_per_unit, 0.01, 1e-12);
   EXPECT_DOUBLE_EQ(std::round(info.fps), 30.0);
   const Dataset d = Dataset::open(out.string());

@@ -27,8 +27,10 @@ double max_position_error(const Skeleton& skeleton, const Motion& a, const Motio
 
 // Encodes, decodes from the clip's own start, and returns the worst position error divided by
 // the skeleton's estimated height.
-double round_trip_error(const Skeleton& skeleton, const Motion& motion, PoseForm form, int root_joint = 0) {
-  const FeatureLayout layout = make_layout(skeleton, form, root_joint, estimate_forward_in_root(skeleton));
+double round_trip_error(const Skeleton& skeleton, const Motion& motion, PoseForm form, int root_joint = 0,
+                        double root_smoothing_s = 0.0) {
+  const FeatureLayout layout =
+      make_layout(skeleton, form, root_joint, estimate_forward_in_root(skeleton), root_smoothing_s);
   std::vector<float> pose, control;
   encode(skeleton, motion, layout, &pose, &control);
   EXPECT_EQ(pose.size(), static_cast<size_t>(motion.num_frames) * layout.pose_dim);
@@ -90,6 +92,70 @@ TEST(Representation, RoundTripTurningWalkBothForms) {
   EXPECT_LT(round_trip_error(s, m, PoseForm::kPositions), 1e-4);
 }
 
+TEST(Representation, SmoothedRootLayout) {
+  const Skeleton s = make_synthetic_biped();
+  const FeatureLayout rot = make_layout(s, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1), 0.2);
+  EXPECT_EQ(rot.pose_dim, 1 + 6 * 21 + 2);
+  EXPECT_EQ(rot.pose_names[rot.pose_dim - 2], "Hips.offset_x_m");
+  EXPECT_EQ(rot.pose_names[rot.pose_dim - 1], "Hips.offset_z_m");
+  EXPECT_TRUE(rot.smoothed_root());
+  const FeatureLayout pos = make_layout(s, PoseForm::kPositions, 0, Eigen::Vector3d(0, 0, 1), 0.2);
+  EXPECT_EQ(pos.pose_dim, 3 * 21);
+  EXPECT_EQ(expected_pose_dim(PoseForm::kRotations, 21, true), 129);
+  EXPECT_THROW(make_layout(s, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1), -0.1), Error);
+  EXPECT_THROW(make_layout(s, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1), 11.0), Error);
+}
+
+TEST(Representation, RoundTripSmoothedRootBothForms) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.turn_rate_rad_s = 0.8;
+  o.noise_rad = 0.02;
+  o.sway_rad = 0.1;
+  o.seed = 5;
+  const Motion m = make_synthetic_walk(s, 240, 30.0, o);
+  for (double sigma : {0.1, 0.2, 0.5}) {
+    EXPECT_LT(round_trip_error(s, m, PoseForm::kRotations, 0, sigma), 1e-4) << sigma;
+    EXPECT_LT(round_trip_error(s, m, PoseForm::kPositions, 0, sigma), 1e-4) << sigma;
+  }
+}
+
+// The smoothed control keeps the path (same start and end, same mean speed) but loses the gait's
+// rhythm, which moves into the pose: the hip's yaw oscillation relative to the trajectory and its
+// offset from it.
+TEST(Representation, SmoothedControlLosesTheGaitRhythm) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.sway_rad = 0.1;
+  o.cycle_hz = 1.0;
+  o.speed_mps = 1.2;
+  const int frames = 300;
+  const Motion m = make_synthetic_walk(s, frames, 30.0, o);
+  const FeatureLayout raw = make_layout(s, PoseForm::kRotations, 0, estimate_forward_in_root(s));
+  const FeatureLayout smooth = make_layout(s, PoseForm::kRotations, 0, estimate_forward_in_root(s), 0.4);
+  std::vector<float> pose_raw, control_raw, pose_smooth, control_smooth;
+  encode(s, m, raw, &pose_raw, &control_raw);
+  encode(s, m, smooth, &pose_smooth, &control_smooth);
+  // Spread of the turn rate over the middle of the clip (the walk is straight on average).
+  auto turn_std = [&](const std::vector<float>& c) {
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (int t = 60; t < frames - 60; ++t, ++n) {
+      sum += c[3 * t + 2];
+      sum2 += c[3 * t + 2] * c[3 * t + 2];
+    }
+    return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+  };
+  EXPECT_GT(turn_std(control_raw), 0.005);
+  EXPECT_LT(turn_std(control_smooth), 0.1 * turn_std(control_raw));
+  // Both controls integrate to the same end point (the filter keeps the ends).
+  const GroundTrajectory g_raw = ground_trajectory(s, m, 0, raw.forward_in_root);
+  const GroundTrajectory g_smooth = control_trajectory(s, m, smooth);
+  EXPECT_LT((g_raw.positions.front() - g_smooth.positions.front()).norm(), 1e-9);
+  EXPECT_LT((g_raw.positions.back() - g_smooth.positions.back()).norm(), 1e-9);
+  EXPECT_NEAR(g_raw.headings_rad.back(), g_smooth.headings_rad.back(), 1e-9);
+}
+
 TEST(Representation, RoundTripWithStaticRootAbove) {
   // A Bandai-like skeleton whose joint 0 is a static root and whose trajectory joint is 1.
   const Skeleton biped = make_synthetic_biped();
@@ -114,6 +180,8 @@ TEST(Representation, RoundTripWithStaticRootAbove) {
     }
   EXPECT_LT(round_trip_error(s, m, PoseForm::kRotations, 1), 1e-4);
   EXPECT_LT(round_trip_error(s, m, PoseForm::kPositions, 1), 1e-4);
+  EXPECT_LT(round_trip_error(s, m, PoseForm::kRotations, 1, 0.2), 1e-4);
+  EXPECT_LT(round_trip_error(s, m, PoseForm::kPositions, 1, 0.2), 1e-4);
 }
 
 TEST(Representation, DecodeStartsWhereAsked) {

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "nn/checkpoint.h"
 #include "nn/generator.h"
 #include "nn/model.h"
 #include "nn/run.h"
@@ -228,6 +229,67 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   EXPECT_EQ(walker.frames(), 0);
   EXPECT_NEAR(walker.root(0).position.norm(), 0.0, 1e-12);
   fs::remove_all(dir);
+}
+
+// --init-from: a run trained without labels warm-starts one with labels. The grown inputs start at
+// zero, so the new model computes what the old one did; the labelled model then takes labels, and
+// the unlabelled one refuses them with a clear message.
+TEST(Training, InitFromGrowsNewConditionsAndLabelsCondition) {
+  auto ds = synthetic_dataset();
+  const auto dir_a = temp_dir("init_a"), dir_b = temp_dir("init_b");
+  auto oa = tiny_options(dir_a);
+  oa.steps = 4;
+  train(oa, ds);
+  ds.info_.content_labels = {"walk", "run"};
+  for (size_t i = 0; i < ds.train_.size(); ++i) ds.train_[i].content = static_cast<int>(i % 2);
+
+  // The warm-started model before any step equals the old one on any labels.
+  auto a = load_run(dir_a.string(), {"checkpoint.pt", "cpu", 1});
+  ModelContext ctx = a.context;
+  ctx.num_content = 2;
+  nlohmann::json cfg = a.config["model"];
+  cfg["labels"] = true;
+  auto grown = create_model("moglow", cfg, ctx);
+  const InitReport report = init_from_checkpoint((dir_a / "checkpoint.pt").string(), *grown, torch::kCPU);
+  EXPECT_GT(report.copied, 0);
+  EXPECT_EQ(report.grown.size(), 2u);  // the input weights of each coupling LSTM
+  EXPECT_TRUE(report.missing.empty());
+  grown->eval();
+  auto batch = mosyn::nn::testing::noisy_sinusoid_batch(2, 12, kDim);
+  batch.content = torch::tensor({0, 1}, torch::kInt64);
+  EXPECT_NEAR(grown->loss(batch).loss().item<double>(), a.model->loss(batch).loss().item<double>(), 1e-5);
+
+  auto ob = tiny_options(dir_b);
+  ob.steps = 4;
+  ob.init_from = dir_a.string();
+  ob.model_config = {{"labels", true}};
+  std::vector<std::string> messages;
+  TrainCallbacks cb;
+  cb.on_message = [&](const std::string& m) { messages.push_back(m); };
+  train(ob, ds, cb);
+  ASSERT_FALSE(messages.empty());
+  EXPECT_NE(messages.front().find("initialised from"), std::string::npos) << messages.front();
+  auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 1});
+  EXPECT_TRUE(b.model->takes_labels());
+  EXPECT_EQ(b.config["model"]["hidden"], 8);  // the init run's architecture
+  const std::vector<float> control(3 * 10, 0.1f);
+  SampleExtras walk, run;
+  walk.content = 0;
+  run.content = 1;
+  EXPECT_NE(sample_motions(b, control, 1, 3, 1.0, walk), sample_motions(b, control, 1, 3, 1.0, run));
+  SampleExtras unknown;
+  unknown.content = 2;
+  EXPECT_THROW(sample_motions(b, control, 1, 3, 1.0, unknown), mosyn::Error);
+  try {
+    sample_motions(a, control, 1, 3, 1.0, walk);
+    ADD_FAILURE() << "an unlabelled model accepted a label";
+  } catch (const mosyn::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("trained without labels"), std::string::npos) << e.what();
+  }
+  ob.resume = true;
+  EXPECT_THROW(train(ob, ds), mosyn::Error);  // resume and init_from exclude each other
+  fs::remove_all(dir_a);
+  fs::remove_all(dir_b);
 }
 
 namespace {

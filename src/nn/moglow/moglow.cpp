@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/label_features.h"
 
 namespace mosyn::nn {
 
@@ -43,6 +44,8 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
     else if (k == "tau") o.tau = config_int(config, "tau", "moglow");
     else if (k == "dropout") o.dropout = config_double(config, "dropout", "moglow");
     else if (k == "scale_eps") o.scale_eps = config_double(config, "scale_eps", "moglow");
+    else if (k == "labels") o.labels = config_bool(config, "labels", "moglow");
+    else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "moglow");
     else throw Error("moglow config: unknown key '" + k + "'");
   }
   if (o.dropout < 0) o.dropout = context.pose_form == "positions" ? 0.95 : 0.6;
@@ -52,12 +55,19 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
   if (o.tau < 1) throw Error("moglow config: tau must be >= 1");
   if (o.dropout > 1.0) throw Error("moglow config: dropout must be in [0, 1]");
   if (o.scale_eps < 0) throw Error("moglow config: scale_eps must be >= 0");
+  if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("moglow config: label_dropout must be in [0, 1]");
   return o;
 }
 
 nlohmann::json MoGlowOptions::to_json() const {
-  return {{"preset", preset},   {"num_steps", num_steps}, {"hidden", hidden},
-          {"lstm_layers", lstm_layers}, {"tau", tau}, {"dropout", dropout}, {"scale_eps", scale_eps}};
+  nlohmann::json j = {{"preset", preset},   {"num_steps", num_steps}, {"hidden", hidden},
+                      {"lstm_layers", lstm_layers}, {"tau", tau}, {"dropout", dropout}, {"scale_eps", scale_eps}};
+  // Written only when on, so configs of runs made before labels stay byte-identical.
+  if (labels) {
+    j["labels"] = true;
+    j["label_dropout"] = label_dropout;
+  }
+  return j;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -204,26 +214,38 @@ torch::Tensor FlowStepImpl::reverse(const torch::Tensor& z, const torch::Tensor&
 MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context)
     : MotionModel("MoGlow"), options_(options), context_(context) {
   const int d = context.pose_dim, c = context.control_dim, tau = options.tau;
-  cond_dim_ = tau * d + (tau + 1) * c;
+  label_dim_ = options.labels ? context.num_content + context.num_style : 0;
+  cond_dim_ = tau * d + (tau + 1) * c + label_dim_;
   dropout_ = options.dropout;
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
 }
 
-torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control) const {
+torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control,
+                                       const torch::Tensor& labels) const {
   const int64_t tau = options_.tau, b = pose.size(0), t = pose.size(1);
   const int64_t n = t - tau;
   // unfold(1, w, 1): [B, windows, F, w]; window s covers frames s..s+w-1.
   auto hist = pose.narrow(1, 0, t - 1).unfold(1, tau, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
   auto ctrl = control.unfold(1, tau + 1, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
-  return torch::cat({hist, ctrl}, -1).transpose(0, 1);
+  if (label_dim_ == 0) return torch::cat({hist, ctrl}, -1).transpose(0, 1);
+  auto lab = labels.defined() ? labels.to(pose.options()) : torch::zeros({b, label_dim_}, pose.options());
+  if (lab.dim() != 2 || lab.size(0) != b || lab.size(1) != label_dim_)
+    throw Error("moglow: labels must be [B, " + std::to_string(label_dim_) + "]");
+  return torch::cat({hist, ctrl, lab.unsqueeze(1).expand({b, n, label_dim_})}, -1).transpose(0, 1);
+}
+
+torch::Tensor MoGlowImpl::labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
+                                    const torch::TensorOptions& options) const {
+  if (label_dim_ == 0) return {};
+  return label_features(content, style, batch, context_.num_content, context_.num_style, options);
 }
 
 MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::Tensor& control,
                                        const torch::Tensor& history_keep,
                                        const std::vector<c10::optional<LstmState>>* init_states,
-                                       bool initialize_actnorm) {
+                                       bool initialize_actnorm, const torch::Tensor& labels) {
   const int64_t tau = options_.tau;
   if (pose.dim() != 3 || pose.size(2) != context_.pose_dim)
     throw Error("moglow: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
@@ -234,7 +256,7 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
     throw Error("moglow: windows need more than tau = " + std::to_string(tau) + " frames, got " +
                 std::to_string(pose.size(1)));
   auto hist_pose = history_keep.defined() ? pose * history_keep.unsqueeze(-1).to(pose.dtype()) : pose;
-  auto cond = conditioning(hist_pose, control);
+  auto cond = conditioning(hist_pose, control, labels);
   auto x = pose.narrow(1, tau, pose.size(1) - tau).transpose(0, 1);  // [T', B, D]
   Encoded e;
   e.states.resize(steps.size());
@@ -264,7 +286,13 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     keep = torch::bernoulli(torch::full({batch.pose.size(0), batch.pose.size(1)}, 1.0 - dropout_))
                .to(batch.pose.device());
   }
-  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training());
+  torch::Tensor labels;
+  if (label_dim_ > 0) {
+    const double p = is_training() ? options_.label_dropout : 0.0;
+    labels = labels_of(drop_labels(batch.content, p), drop_labels(batch.style, p), batch.pose.size(0),
+                       batch.pose.options());
+  }
+  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels);
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
   auto nll_frame = -ll.mean();
@@ -283,6 +311,7 @@ struct MoGlowStream : StreamState {
   torch::Tensor ctrl_hist;  // [B, tau, C]: controls of the previous tau frames
   std::vector<c10::optional<LstmState>> states;
   std::vector<torch::Tensor> w_inverse;
+  torch::Tensor labels;  // [B, label_dim] or undefined
   at::Generator generator;
   double temperature = 1.0;
   torch::TensorOptions options;
@@ -325,9 +354,10 @@ std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& reque
                                                 : torch::zeros({b, pre_pose.size(1), c}, st->options);
   }
   st->states.resize(steps.size());
+  st->labels = labels_of(request.content, request.style, b, st->options);
   // A prefix longer than tau warms the coupling LSTMs up, as the window context does in training.
   if (pre_pose.defined() && pre_pose.size(1) > tau) {
-    auto e = encode(pre_pose, pre_ctrl);
+    auto e = encode(pre_pose, pre_ctrl, {}, nullptr, false, st->labels);
     st->states = e.states;
   }
   st->pose_hist = last_frames(pre_pose, tau, b, d, st->options);
@@ -343,7 +373,9 @@ torch::Tensor MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& c
   if (control.dim() != 2 || control.size(0) != b || control.size(1) != context_.control_dim)
     throw Error("moglow step: control must be [" + std::to_string(b) + ", " + std::to_string(context_.control_dim) + "]");
   auto ctrl_full = torch::cat({st.ctrl_hist, control.to(st.options).unsqueeze(1)}, 1);  // [B, tau+1, C]
-  auto cond = torch::cat({st.pose_hist.reshape({b, -1}), ctrl_full.reshape({b, -1})}, -1).unsqueeze(0);
+  std::vector<torch::Tensor> parts = {st.pose_hist.reshape({b, -1}), ctrl_full.reshape({b, -1})};
+  if (st.labels.defined()) parts.push_back(st.labels);
+  auto cond = torch::cat(parts, -1).unsqueeze(0);
   auto z = torch::randn({1, b, d}, st.generator, torch::TensorOptions().dtype(st.options.dtype())).to(st.options.device());
   auto x = z * st.temperature;
   for (int64_t k = static_cast<int64_t>(steps.size()) - 1; k >= 0; --k)

@@ -34,6 +34,10 @@ struct MoGlowOptions {
   double dropout = -1.0;    // data dropout probability of whole history frames in training;
                             // < 0 = by pose form: 0.95 positions, 0.6 rotations (paper)
   double scale_eps = 0.05;  // coupling scale s = sigmoid(h + 2) + scale_eps, in (eps, 1 + eps)
+  // Content and style labels as conditions (one-hot, appended to the conditioning vector of
+  // every frame; nn/label_features.h). Off in runs made before labels were supported.
+  bool labels = false;
+  double label_dropout = 0.1;  // training: probability that a window's label is replaced by none
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -156,20 +160,26 @@ class MoGlowImpl : public MotionModel {
   // pose [B, T, D], control [B, T, C] standardised, T > tau. history_keep (optional [B, T] of
   // 0/1) multiplies pose frames before they enter the history (data dropout). init_states
   // (optional, per step) continues a previous window. initialize_actnorm: initialise any
-  // uninitialised ActNorm from this data (loss() does so in training mode).
+  // uninitialised ActNorm from this data (loss() does so in training mode). labels: [B,
+  // label_dim()] from label_features (undefined = no labels); ignored when label_dim() is 0.
   Encoded encode(const torch::Tensor& pose, const torch::Tensor& control,
                  const torch::Tensor& history_keep = {},
                  const std::vector<c10::optional<LstmState>>* init_states = nullptr,
-                 bool initialize_actnorm = false);
+                 bool initialize_actnorm = false, const torch::Tensor& labels = {});
 
   // Per-frame log p(x_t | ...) [B, T - tau] (nats) without dropout.
   torch::Tensor log_likelihood(const torch::Tensor& pose, const torch::Tensor& control);
 
-  // Conditioning vectors [T - tau, B, tau*D + (tau+1)*C] (time-major) for frames tau..T-1:
-  // concat of poses t-tau..t-1 (oldest first) then controls t-tau..t.
-  torch::Tensor conditioning(const torch::Tensor& pose, const torch::Tensor& control) const;
+  // Conditioning vectors [T - tau, B, tau*D + (tau+1)*C + label_dim()] (time-major) for frames
+  // tau..T-1: concat of poses t-tau..t-1 (oldest first), controls t-tau..t, then the labels
+  // [B, label_dim()] (zeros when undefined).
+  torch::Tensor conditioning(const torch::Tensor& pose, const torch::Tensor& control,
+                             const torch::Tensor& labels = {}) const;
 
   int cond_dim() const { return cond_dim_; }
+  // Size of the label part of the conditioning: content + style vocabularies, or 0 without labels.
+  int label_dim() const { return label_dim_; }
+  bool takes_labels() const override { return label_dim_ > 0; }
   double dropout() const { return dropout_; }
 
   std::vector<FlowStep> steps;
@@ -178,7 +188,11 @@ class MoGlowImpl : public MotionModel {
   MoGlowOptions options_;
   ModelContext context_;
   int cond_dim_ = 0;
+  int label_dim_ = 0;
   double dropout_ = 0.0;
+  // label_features of a request's or batch's labels, [B, label_dim()] (undefined without labels).
+  torch::Tensor labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
+                          const torch::TensorOptions& options) const;
 };
 TORCH_MODULE(MoGlow);
 

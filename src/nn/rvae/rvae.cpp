@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/label_features.h"
 
 namespace mosyn::nn {
 
@@ -34,6 +35,8 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
     else if (k == "kl_weight") o.kl_weight = config_double(config, "kl_weight", "rvae");
     else if (k == "kl_anneal") o.kl_anneal = config_double(config, "kl_anneal", "rvae");
     else if (k == "l1") o.l1 = config_double(config, "l1", "rvae");
+    else if (k == "labels") o.labels = config_bool(config, "labels", "rvae");
+    else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "rvae");
     else if (k == "test_latents") {
       if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
       o.test_latents = it.value().get<std::string>();
@@ -52,13 +55,14 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   if (!(o.kl_weight >= 0)) throw Error("rvae config: kl_weight must be >= 0");
   if (!(o.kl_anneal >= 0 && o.kl_anneal <= 1)) throw Error("rvae config: kl_anneal must be in [0, 1]");
   if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
+  if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("rvae config: label_dropout must be in [0, 1]");
   if (o.test_latents != "first" && o.test_latents != "every_step")
     throw Error("rvae config: test_latents must be \"first\" or \"every_step\", not \"" + o.test_latents + "\"");
   return o;
 }
 
 nlohmann::json RvaeOptions::to_json() const {
-  return {{"encoder_channels", encoder_channels},
+  nlohmann::json j = {{"encoder_channels", encoder_channels},
           {"control_channels", control_channels},
           {"decoder_channels", decoder_channels},
           {"latent", latent},
@@ -68,6 +72,12 @@ nlohmann::json RvaeOptions::to_json() const {
           {"kl_anneal", kl_anneal},
           {"l1", l1},
           {"test_latents", test_latents}};
+  // Written only when on, so configs of runs made before labels stay byte-identical.
+  if (labels) {
+    j["labels"] = true;
+    j["label_dropout"] = label_dropout;
+  }
+  return j;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -121,8 +131,9 @@ torch::Tensor RvaeCellImpl::forward(const torch::Tensor& prev, const torch::Tens
 RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     : MotionModel("Rvae"), options_(options), context_(context) {
   const int d = context.pose_dim, c = context.control_dim, z = options.latent, k = options.kernel;
+  label_dim_ = options.labels ? context.num_content + context.num_style : 0;
   inference = register_module("inference", ConvEncoder(d, options.encoder_channels, k, 2 * z));
-  control_encoder = register_module("control_encoder", ConvEncoder(c, options.control_channels, k, 0));
+  control_encoder = register_module("control_encoder", ConvEncoder(c + label_dim_, options.control_channels, k, 0));
   cell = register_module("cell", RvaeCell(z, options.control_channels.back()));
   deconvs = register_module("deconvs", torch::nn::ModuleList());
   int in = z;
@@ -159,10 +170,18 @@ RvaeImpl::Posterior RvaeImpl::encode(const torch::Tensor& pose) {
   return {parts[0], parts[1]};
 }
 
-torch::Tensor RvaeImpl::encode_control(const torch::Tensor& control) {
+torch::Tensor RvaeImpl::encode_control(const torch::Tensor& control, const torch::Tensor& labels) {
   if (control.dim() != 3 || control.size(2) != context_.control_dim || control.size(1) < 1)
     throw Error("rvae: control must be [B, T >= 1, " + std::to_string(context_.control_dim) + "]");
-  return control_encoder->forward(pad_time(control));
+  auto padded = pad_time(control);
+  if (label_dim_ > 0) {
+    const int64_t b = padded.size(0), t = padded.size(1);
+    auto lab = labels.defined() ? labels.to(padded.options()) : torch::zeros({b, label_dim_}, padded.options());
+    if (lab.dim() != 2 || lab.size(0) != b || lab.size(1) != label_dim_)
+      throw Error("rvae: labels must be [B, " + std::to_string(label_dim_) + "]");
+    padded = torch::cat({padded, lab.unsqueeze(1).expand({b, t, label_dim_})}, -1);
+  }
+  return control_encoder->forward(padded);
 }
 
 torch::Tensor RvaeImpl::run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents) {
@@ -212,8 +231,14 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     pose_in = pose * mask(pose);
     control_in = control * mask(control);
   }
+  torch::Tensor labels;
+  if (label_dim_ > 0) {
+    const double pl = is_training() ? options_.label_dropout : 0.0;
+    labels = label_features(drop_labels(batch.content, pl), drop_labels(batch.style, pl), pose.size(0),
+                            context_.num_content, context_.num_style, pose.options());
+  }
   auto post = encode(pose_in);
-  auto hc = encode_control(control_in);
+  auto hc = encode_control(control_in, labels);
   auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(post.mean.scalar_type()))
                  .to(post.mean.device());
   auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
@@ -273,7 +298,10 @@ torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
   } else {
     latents = (request.temperature * torch::randn({b, 1, z}, gen, cpu)).to(opts.device());
   }
-  auto hc = encode_control(control);
+  torch::Tensor labels;
+  if (label_dim_ > 0)
+    labels = label_features(request.content, request.style, b, context_.num_content, context_.num_style, opts);
+  auto hc = encode_control(control, labels);
   if (options_.test_latents == "every_step" && hc.size(1) > latents.size(1)) {
     auto rest = request.temperature * torch::randn({b, hc.size(1) - latents.size(1), z}, gen, cpu);
     latents = torch::cat({latents, rest.to(opts.device())}, 1);

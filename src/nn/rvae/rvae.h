@@ -48,6 +48,10 @@ struct RvaeOptions {
   // "every_step" = a fresh prior latent sets the state of every step after the prefix (the
   // alternative the paper reports works equally well, Sec. 3.4). Changing it needs no retraining.
   std::string test_latents = "first";
+  // Content and style labels as conditions: one-hot, appended to the control encoder's input at
+  // every frame (nn/label_features.h). Off in runs made before labels were supported.
+  bool labels = false;
+  double label_dropout = 0.1;  // training: probability that a window's label is replaced by none
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -121,8 +125,11 @@ class RvaeImpl : public MotionModel {
   // pose [B, T, D] (any T >= 1; padded internally to a multiple of R by repeating the last
   // frame) -> posterior of the L = ceil(T / R) reduced steps.
   Posterior encode(const torch::Tensor& pose);
-  // control [B, T, C] -> h_c [B, ceil(T / R), Hc].
-  torch::Tensor encode_control(const torch::Tensor& control);
+  // control [B, T, C] -> h_c [B, ceil(T / R), Hc]. labels [B, label_dim()] (label_features;
+  // undefined = none) join the control at every frame when the model takes labels.
+  torch::Tensor encode_control(const torch::Tensor& control, const torch::Tensor& labels = {});
+  int label_dim() const { return label_dim_; }
+  bool takes_labels() const override { return label_dim_ > 0; }
   // Runs the cell over the L reduced steps: h_c [B, L, Hc]; latents [B, K, Z] (K >= 1). Steps
   // k < K use latents[k] as the state entering the step (teacher_latent); steps k >= K run
   // from the previous cell state. K = L is the training mode. Returns the canvas [B, L, Z].
@@ -143,6 +150,7 @@ class RvaeImpl : public MotionModel {
   RvaeOptions options_;
   ModelContext context_;
   double kl_now_ = 1.0;
+  int label_dim_ = 0;
 };
 TORCH_MODULE(Rvae);
 

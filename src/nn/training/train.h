@@ -40,6 +40,11 @@ struct TrainOptions {
   int threads = 0;                // CPU threads for LibTorch; 0 = all cores
   std::string device = "cpu";     // "cpu", "cuda" or "cuda:N"
   bool resume = false;            // continue the run in out_dir exactly where its checkpoint ended
+  // Warm start from another run or shipped model directory (its checkpoint.pt): same family; its
+  // model config is the base that model_config overrides; its weights initialise the model
+  // (nn/checkpoint.h init_from_checkpoint), so training accumulates across runs. The step count
+  // and optimiser start afresh; the new dataset's statistics are used. Not with resume.
+  std::string init_from;
   bool overwrite = false;         // replace an existing run in out_dir
   int checkpoint_every = 500;     // steps between checkpoints (the last step always checkpoints)
   int validate_every = 500;       // steps between validations (and at the last step); 0 = never

@@ -46,7 +46,8 @@ nlohmann::json TrainOptions::to_json() const {
           {"checkpoint_every", checkpoint_every},
           {"validate_every", validate_every},
           {"val_windows", val_windows},
-          {"log_every", log_every}};
+          {"log_every", log_every},
+          {"init_from", init_from}};
 }
 
 TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
@@ -74,6 +75,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "validate_every") o.validate_every = v.get<int>();
       else if (k == "val_windows") o.val_windows = v.get<int>();
       else if (k == "log_every") o.log_every = v.get<int>();
+      else if (k == "init_from") o.init_from = v.get<std::string>();
       else throw Error("unknown training option '" + k + "'");
     }
   } catch (const Error&) {
@@ -173,6 +175,26 @@ std::vector<std::string> read_log_until(const std::string& path, int step) {
   return out;
 }
 
+// The model config of a warm start: the init run's resolved config, then the caller's keys.
+nlohmann::json init_model_config(const std::string& init_dir, const std::string& family,
+                                 const nlohmann::json& overrides) {
+  const std::string path = (fs::path(init_dir) / "config.json").string();
+  const nlohmann::json saved = io::read_json(path);
+  std::string saved_family;
+  nlohmann::json config;
+  try {
+    saved_family = saved.at("family").get<std::string>();
+    config = saved.at("model");
+  } catch (const std::exception& e) {
+    throw Error(path + ": not a mosyn run configuration (" + e.what() + ")");
+  }
+  if (saved_family != family)
+    throw Error(path + ": --init-from needs a run of the same family ('" + saved_family + "', not '" + family + "')");
+  if (overrides.is_object())
+    for (const auto& [key, value] : overrides.items()) config[key] = value;
+  return config;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -189,6 +211,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   if (opts.checkpoint_every < 1) throw Error("train: checkpoint_every must be >= 1");
   if (opts.log_every < 1) throw Error("train: log_every must be >= 1");
   if (opts.lr <= 0) throw Error("train: lr must be positive");
+  if (opts.resume && !opts.init_from.empty()) throw Error("train: resume and init_from exclude each other");
   set_num_threads(opts.threads);
   const torch::Device device = parse_device(opts.device);
 
@@ -218,10 +241,21 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
     const auto saved = io::read_json(config_path);
     family = saved.at("family").get<std::string>();
     model_config = saved.at("model");
+  } else if (!opts.init_from.empty()) {
+    model_config = init_model_config(opts.init_from, family, model_config);
   }
   torch::manual_seed(opts.seed);
   auto model = create_model(family, model_config, context);
   model->to(device);
+  if (!opts.resume && !opts.init_from.empty()) {
+    const std::string from = (fs::path(opts.init_from) / "checkpoint.pt").string();
+    const InitReport r = init_from_checkpoint(from, *model, device);
+    std::string text = "initialised from " + from + " (step " + std::to_string(r.step) + "): " +
+                       std::to_string(r.copied) + " tensors copied";
+    if (!r.grown.empty()) text += ", " + std::to_string(r.grown.size()) + " grown (new inputs start at zero)";
+    if (!r.missing.empty()) text += ", " + std::to_string(r.missing.size()) + " left as initialised";
+    message(text);
+  }
 
   const int window = opts.window > 0 ? opts.window : dataset.info().window_frames;
   if (window < 2) throw Error("train: window must be at least 2 frames (set window)");

@@ -1,0 +1,51 @@
+// Foot locking: an optional post-process for users who need clean feet (off by default; the
+// models' raw output is what mosyn evaluates). Contacts are detected from the motion's own feet
+// (an ankle near its floor and slow), each contact is pinned to one floor position, and the leg
+// reaches it by two-bone inverse kinematics (hip and knee rotations; the foot keeps its world
+// orientation), blending in and out around the contact so nothing pops.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "core/skeleton.h"
+
+namespace mosyn {
+
+struct FootLockOptions {
+  double contact_height_m = 0.04;  // ankle within this of its floor (its 5th-percentile height)
+  double contact_speed_mps = 0.4;  // and its horizontal speed below this: in contact
+  double min_contact_s = 0.08;     // shorter runs are not contacts
+  double blend_s = 0.1;            // ramp from free to pinned before a contact and back after it
+};
+
+// A leg found by name: the ankle ("foot"/"ankle" in its name), its parent (knee) and
+// grandparent (hip). Joint indices into the skeleton.
+struct LegChain {
+  int hip = -1, knee = -1, ankle = -1;
+};
+
+// Every leg of the skeleton (usually two). Empty when none is found.
+std::vector<LegChain> find_legs(const Skeleton& skeleton);
+
+// Two-bone IK in world space: the knee position that puts the ankle at target with upper and
+// lower bone lengths kept, bending in the plane of the hip, the target and the current knee
+// (pole). A target out of reach is approached along the hip-target line as far as the bones go.
+Eigen::Vector3d two_bone_knee(const Eigen::Vector3d& hip, const Eigen::Vector3d& knee, const Eigen::Vector3d& target,
+                              double upper_length, double lower_length);
+
+struct FootLockReport {
+  int contacts = 0;                // contact intervals pinned over all legs
+  double max_correction_m = 0.0;   // largest horizontal ankle move
+};
+
+// The motion with its feet pinned during contacts (see the top of this file). Units come from
+// skeleton.meters_per_unit; the up axis from skeleton.up_axis. Only the leg joints' local
+// rotations change; bone lengths and every other joint stay as they were. Returns the motion
+// unchanged when the skeleton has no legs. Throws mosyn::Error for invalid options or a motion
+// that does not fit the skeleton.
+Motion foot_lock(const Skeleton& skeleton, const Motion& motion, const FootLockOptions& options = {},
+                 FootLockReport* report = nullptr);
+
+}  // namespace mosyn
