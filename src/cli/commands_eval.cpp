@@ -484,6 +484,8 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--initial-frames", a->options.initial_frames,
                     "joint errors: real frames observed before the continuation (default 4, the paper's)");
     cmd->add_flag("--no-joint-errors", a->no_joint_errors, "skip the joint-position errors");
+    cmd->add_flag("--foot-lock", a->options.foot_lock,
+                  "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
     cmd->add_option("--foot-joints", a->foot_joints,
                     "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
     cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");

@@ -10,6 +10,7 @@
 
 #include "cli/cli.h"
 #include "core/error.h"
+#include "core/foot_lock.h"
 #include "core/kinematics.h"
 #include "data/control.h"
 #include "data/dataset.h"
@@ -133,6 +134,7 @@ struct SampleArgs {
   std::string continue_file;  // --continue: observed motion to continue
   double observed_s = 1.0;
   int observed_frames = -1;
+  bool foot_lock = false;
 };
 
 int label_index(const std::vector<std::string>& vocabulary, const std::string& label, const char* what) {
@@ -254,6 +256,8 @@ void run_sample(const SampleArgs& a) {
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
     Clip clip = data::decode_features(run.dataset, poses[i].data(), control.data(), total_frames, start_position,
                                       start_heading);
+    FootLockReport lock;
+    if (a.foot_lock) clip.motion = mosyn::foot_lock(clip.skeleton, clip.motion, {}, &lock);
     io::write_bvh(base + ".bvh", io::from_clip(clip));
     if (a.positions) {
       io::write_positions_npy(base + ".npy", total_frames, clip.skeleton.num_joints(),
@@ -273,6 +277,9 @@ void run_sample(const SampleArgs& a) {
                                                 : nlohmann::json{{"file", a.continue_file}, {"observed_frames", observed}}},
                               {"content", a.content},
                               {"style", a.style},
+                              {"foot_lock", a.foot_lock ? nlohmann::json{{"contacts", lock.contacts},
+                                                                         {"max_correction_m", lock.max_correction_m}}
+                                                        : nlohmann::json(nullptr)},
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
     io::write_json(base + ".json", sidecar);
   }
@@ -371,6 +378,9 @@ void add_model_commands(CLI::App& app, Action* action) {
   sample->add_option("--observed-frames", s->observed_frames,
                      "--continue: frames of the file observed (overrides --observed; e.g. 4 as Habibie et al.)");
   sample->add_option("--prefix", s->prefix, "output file name prefix")->capture_default_str();
+  sample->add_flag("--foot-lock", s->foot_lock,
+                   "post-process: pin each foot contact to one floor position by two-bone IK (off: the model's raw "
+                   "motion)");
   sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
   sample->callback([action, s] { *action = [s] { run_sample(*s); }; });
 

@@ -8,6 +8,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "core/foot_lock.h"
 #include "data/prepare.h"
 #include "nn/classifier/classify.h"
 #include "nn/model.h"
@@ -173,6 +174,7 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
   std::vector<MotionPositions> real;                   // [clips]
   std::vector<std::vector<MotionPositions>> samples;   // [clips][N]
   std::vector<std::vector<std::vector<float>>> sample_poses;  // raw, for the classifier
+  std::vector<std::vector<MotionPositions>> locked;           // [clips][N], with foot_lock only
   for (size_t i = 0; i < chosen.size(); ++i) {
     report("sampling", static_cast<int>(i), static_cast<int>(chosen.size()));
     const data::ClipRecord& rec = all[chosen[i]];
@@ -186,11 +188,19 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     }
     extras.warmup_frames = warmup_frames;
     auto poses = nn::sample_motions(run, rec.control, n, o.seed + i, o.temperature, extras);
-    std::vector<MotionPositions> mine;
-    for (int k = 0; k < n; ++k)
-      mine.push_back(motion_positions(nn::decode_motion(run, poses[k], rec.control), 0.0,
-                                      rec.source + " sample " + std::to_string(k)));
+    std::vector<MotionPositions> mine, mine_locked;
+    for (int k = 0; k < n; ++k) {
+      const Clip clip = nn::decode_motion(run, poses[k], rec.control);
+      const std::string name = rec.source + " sample " + std::to_string(k);
+      mine.push_back(motion_positions(clip, 0.0, name));
+      if (o.foot_lock) {
+        Clip pinned = clip;
+        pinned.motion = foot_lock(clip.skeleton, clip.motion);
+        mine_locked.push_back(motion_positions(pinned, 0.0, name + " foot-locked"));
+      }
+    }
     samples.push_back(std::move(mine));
+    if (o.foot_lock) locked.push_back(std::move(mine_locked));
     sample_poses.push_back(std::move(poses));
   }
   report("sampling", static_cast<int>(chosen.size()), static_cast<int>(chosen.size()));
@@ -206,6 +216,18 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
   }
   for (size_t r = 0; r < real_rows.size(); ++r)
     result.rows.push_back({real_rows[r].key, real_rows[r].label, mean_finite(model_values[r]), real_rows[r].value});
+  if (o.foot_lock) {
+    std::vector<std::vector<double>> locked_values(real_rows.size());
+    for (int k = 0; k < n; ++k) {
+      std::vector<MotionPositions> set;
+      for (const auto& s : locked) set.push_back(s[k]);
+      const auto rows = set_metrics(set, o.metrics);
+      for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) locked_values[r].push_back(rows[r].value);
+    }
+    for (size_t r = 0; r < real_rows.size(); ++r)
+      result.rows.push_back({"foot_locked." + real_rows[r].key, real_rows[r].label + " (foot-locked)",
+                             mean_finite(locked_values[r]), real_rows[r].value});
+  }
 
   // ---- Diversity across the N samples of one control.
   {

@@ -40,6 +40,9 @@ struct EvalOptions {
   double multimodal_threshold_m = 0.5;  // MMADE/MMFDE ground-truth grouping (root-relative whole-pose L2, m)
   std::string classifier_dir;    // a "classifier" run: adds IS, FID and accuracies ("" = none)
   SetMetricsOptions metrics;     // footstep, skating and foot-joint options
+  // Also score the samples after the foot-lock post-process (core/foot_lock.h): rows
+  // "foot_locked.<key>" beside the raw ones, which stay what the model makes.
+  bool foot_lock = false;
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
   std::string checkpoint = "checkpoint.pt";  // file of the run to evaluate (e.g. "best.pt"), run_dir overload
 };
@@ -85,6 +88,7 @@ struct EvalResult {
 // - set metrics (set_metrics.h) of the real clips and, for the model, the mean over k = 1..N of
 //   the set of every clip's k-th sample (same size and controls as the real set, so counts such
 //   as footsteps compare directly);
+// - with foot_lock, the same set metrics of the foot-locked samples, keys "foot_locked.<key>";
 // - "diversity.apd_m" APD across the N samples of one control, and
 //   "diversity.mean_pose_distance_m" DFN's distance to the per-frame mean pose across them, each
 //   averaged over clips (real: n/a, one motion per control);

@@ -27,6 +27,13 @@ struct GeneratorOptions {
   // none for everyone, one entry = the same for everyone, else one entry per character. Only for
   // models that take labels (MotionModel::takes_labels); an unknown index is an error.
   std::vector<int> content, style;
+  // Causal shaping of live controls (a game pad's sudden starts, stops and turns) towards the
+  // Gaussian-smoothed trajectories the model was trained on: each control channel passes through a
+  // critically damped second-order filter whose 10-90% rise time equals that of the training
+  // Gaussian (2.56 sigma), i.e. natural angular frequency 1.31 / sigma. The root follows the shaped
+  // control. < 0 = the run's dataset root_smoothing_s (none for runs on the raw hip trajectory);
+  // 0 = off (controls used as given, e.g. controls that come from a smoothed dataset or path).
+  double control_smoothing_s = -1.0;
   int warmup_frames = 0;     // frames of standing generated and dropped at (re)start, so the first
                             // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };
@@ -48,7 +55,9 @@ class Generator {
   Generator& operator=(Generator&&) noexcept;
 
   // Advances every character by one frame. control: raw [B, C] row-major (dx, dz metres,
-  // dtheta radians of the new frame relative to the previous one). Returns raw pose [B, D].
+  // dtheta radians of the new frame relative to the previous one), shaped as
+  // GeneratorOptions::control_smoothing_s says before the model and the root see it. Returns raw
+  // pose [B, D].
   std::vector<float> step(const std::vector<float>& control);
 
   // Restarts the stream (states, history, root poses) with a new seed.
@@ -58,6 +67,8 @@ class Generator {
   int pose_dim() const;
   int control_dim() const;
   int frames() const;  // frames generated since the start / reset
+  // The control the model saw at the last step, after shaping: raw [B, C].
+  const std::vector<float>& last_control() const;
   // Root pose of character b after the frames so far, integrated from the controls.
   const RootPose& root(int b) const;
   const LoadedRun& run() const;

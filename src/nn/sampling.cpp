@@ -116,6 +116,27 @@ struct Generator::Impl {
   std::vector<RootPose> roots;
   int frames = 0;
   torch::Device device{torch::kCPU};
+  // Control shaping (GeneratorOptions::control_smoothing_s): per character and channel, the
+  // filter's output value and its rate of change per frame.
+  double omega_per_frame = 0;  // 0 = no shaping
+  std::vector<double> shaped, shaped_rate;
+  std::vector<float> last_control;
+
+  // One frame of a critically damped second-order filter x'' = w^2 (u - x) - 2 w x' (exact
+  // discretisation of its free response over one frame, input held constant).
+  void shape(std::vector<float>& control) {
+    if (omega_per_frame <= 0) return;
+    const double w = omega_per_frame, e = std::exp(-w);
+    for (size_t i = 0; i < control.size(); ++i) {
+      const double x0 = shaped[i] - control[i], v0 = shaped_rate[i];
+      // x(t) = (x0 + (v0 + w x0) t) e^{-w t}, at t = 1 frame.
+      const double x1 = (x0 + (v0 + w * x0)) * e;
+      const double v1 = (v0 - w * (v0 + w * x0)) * e;
+      shaped[i] = control[i] + x1;
+      shaped_rate[i] = v1;
+      control[i] = static_cast<float>(shaped[i]);
+    }
+  }
 
   Impl(LoadedRun r, const GeneratorOptions& o) : run(std::move(r)), options(o), st(run.stats) {
     if (!run.model) throw Error("Generator: run has no model");
@@ -125,6 +146,9 @@ struct Generator::Impl {
     if (options.warmup_frames < 0) throw Error("Generator: warmup_frames must be >= 0");
     device = model_device(*run.model);
     run.model->eval();
+    const double sigma_s =
+        options.control_smoothing_s < 0 ? run.dataset.layout.root_smoothing_s : options.control_smoothing_s;
+    if (sigma_s > 0) omega_per_frame = 1.31 / (sigma_s * run.dataset.fps);
     start(options.seed);
   }
 
@@ -146,6 +170,10 @@ struct Generator::Impl {
     }
     roots.assign(options.batch, RootPose{});
     frames = 0;
+    const size_t values = static_cast<size_t>(options.batch) * run.context.control_dim;
+    shaped.assign(values, 0.0);
+    shaped_rate.assign(values, 0.0);
+    last_control.assign(values, 0.0f);
   }
 };
 
@@ -159,11 +187,16 @@ Generator::~Generator() = default;
 Generator::Generator(Generator&&) noexcept = default;
 Generator& Generator::operator=(Generator&&) noexcept = default;
 
-std::vector<float> Generator::step(const std::vector<float>& control) {
+std::vector<float> Generator::step(const std::vector<float>& given) {
   auto& m = *impl_;
   const int64_t b = m.options.batch, c = m.run.context.control_dim, d = m.run.context.pose_dim;
-  if (control.size() != static_cast<size_t>(b * c))
+  if (given.size() != static_cast<size_t>(b * c))
     throw Error("Generator::step: control must be [" + std::to_string(b) + ", " + std::to_string(c) + "]");
+  for (float v : given)
+    if (!std::isfinite(v)) throw Error("Generator::step: the control holds a NaN or infinite value");
+  m.last_control = given;
+  m.shape(m.last_control);
+  const std::vector<float>& control = m.last_control;
   auto ctrl = m.st.control(from_vector(control, b, c)).to(m.device);
   auto pose = m.st.unpose(m.run.model->step_stream(*m.stream, ctrl).to(torch::kCPU, torch::kFloat32)).contiguous();
   // Root pose: integrate the delta (metres -> skeleton units) from the previous root pose.
@@ -189,6 +222,7 @@ int Generator::batch() const { return impl_->options.batch; }
 int Generator::pose_dim() const { return impl_->run.context.pose_dim; }
 int Generator::control_dim() const { return impl_->run.context.control_dim; }
 int Generator::frames() const { return impl_->frames; }
+const std::vector<float>& Generator::last_control() const { return impl_->last_control; }
 const RootPose& Generator::root(int b) const { return impl_->roots.at(b); }
 const LoadedRun& Generator::run() const { return impl_->run; }
 

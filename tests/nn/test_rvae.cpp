@@ -108,6 +108,35 @@ TEST(Rvae, DecoderTeacherAndFreeRunning) {
                                 model->cell->forward(free.select(1, t - 1), hc.select(1, t), {}, false)));
 }
 
+// use_latent mixes the two modes row by row; free_running = 1 trains Algorithm 1's model: only
+// the first latent is used (and its KL counted), the cell runs freely after it.
+TEST(Rvae, FreeRunningStepsAndTheirKl) {
+  auto model = tiny_model();
+  torch::NoGradGuard ng;
+  auto hc = torch::randn({2, 7, 10}), z = torch::randn({2, 7, 5});
+  auto mask = torch::zeros({2, 7}, torch::kBool);
+  mask.select(1, 0).fill_(true);
+  mask[1].fill_(true);  // row 1: every step from its latent; row 0: free after the first
+  auto mixed = model->run_decoder(hc, z, mask);
+  EXPECT_TRUE(torch::allclose(mixed[0], model->run_decoder(hc, z.narrow(1, 0, 1))[0]));
+  EXPECT_TRUE(torch::allclose(mixed[1], model->run_decoder(hc, z)[1]));
+
+  nlohmann::json cfg = tiny_config();
+  cfg["free_running"] = 1.0;
+  torch::manual_seed(1);
+  auto free = std::dynamic_pointer_cast<RvaeImpl>(create_model("rvae", cfg, small_context()));
+  free->to(torch::kFloat64);
+  free->eval();
+  auto pose = torch::randn({3, 19, 6}, torch::kFloat64), control = torch::randn({3, 19, 3}, torch::kFloat64);
+  auto post = free->encode(pose);
+  auto first = post.mean.narrow(1, 0, 1), first_logvar = post.logvar.narrow(1, 0, 1);
+  auto kl = (0.5 * (first.pow(2) + first_logvar.exp() - 1 - first_logvar)).sum({1, 2}).mean() / 19.0;
+  EXPECT_NEAR(free->loss({pose, control, {}, {}}).terms.at("kl").item<double>(), kl.item<double>(), 1e-9);
+  EXPECT_EQ(free->config()["free_running"], 1.0);
+  cfg["free_running"] = 1.5;
+  EXPECT_THROW(create_model("rvae", cfg, small_context()), Error);
+}
+
 TEST(Rvae, KlMatchesClosedFormByHand) {
   // KL(N(m, s^2) || N(0, 1)) = 0.5 (m^2 + s^2 - 1 - log s^2) per dimension.
   auto mean = torch::tensor({0.5, -1.0}, torch::kFloat64).reshape({1, 1, 2});

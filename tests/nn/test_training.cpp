@@ -231,6 +231,38 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   fs::remove_all(dir);
 }
 
+// Live controls are shaped like smoothed training trajectories: a sudden start ramps up without
+// overshoot and settles on the input; the root follows the shaped control.
+TEST(Sampling, GeneratorShapesLiveControls) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("shape");
+  auto o = tiny_options(dir);
+  o.steps = 2;
+  train(o, ds);
+  GeneratorOptions go;
+  go.threads = 1;
+  go.control_smoothing_s = 0.5;  // at the dataset's 20 fps: w = 0.131 per frame
+  Generator gen(dir.string(), go);
+  double previous = 0, travelled = 0;
+  for (int f = 0; f < 120; ++f) {
+    gen.step({0.0f, 0.1f, 0.0f});
+    const double v = gen.last_control()[1];
+    EXPECT_GE(v, previous - 1e-9);  // monotone: critically damped
+    EXPECT_LE(v, 0.1 + 1e-6);       // no overshoot
+    if (f == 0) EXPECT_LT(v, 0.02);
+    previous = v;
+    travelled += v;
+  }
+  EXPECT_NEAR(previous, 0.1, 1e-4);
+  EXPECT_NEAR(gen.root(0).position.z(), travelled, 1e-6);
+  EXPECT_THROW(gen.step({0.0f, std::nanf(""), 0.0f}), mosyn::Error);
+  go.control_smoothing_s = 0.0;  // off: controls as given
+  Generator raw(dir.string(), go);
+  raw.step({0.0f, 0.1f, 0.0f});
+  EXPECT_FLOAT_EQ(raw.last_control()[1], 0.1f);
+  fs::remove_all(dir);
+}
+
 // --init-from: a run trained without labels warm-starts one with labels. The grown inputs start at
 // zero, so the new model computes what the old one did; the labelled model then takes labels, and
 // the unlabelled one refuses them with a clear message.

@@ -37,6 +37,7 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
     else if (k == "l1") o.l1 = config_double(config, "l1", "rvae");
     else if (k == "labels") o.labels = config_bool(config, "labels", "rvae");
     else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "rvae");
+    else if (k == "free_running") o.free_running = config_double(config, "free_running", "rvae");
     else if (k == "test_latents") {
       if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
       o.test_latents = it.value().get<std::string>();
@@ -56,6 +57,7 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   if (!(o.kl_anneal >= 0 && o.kl_anneal <= 1)) throw Error("rvae config: kl_anneal must be in [0, 1]");
   if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
   if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("rvae config: label_dropout must be in [0, 1]");
+  if (!(o.free_running >= 0 && o.free_running <= 1)) throw Error("rvae config: free_running must be in [0, 1]");
   if (o.test_latents != "first" && o.test_latents != "every_step")
     throw Error("rvae config: test_latents must be \"first\" or \"every_step\", not \"" + o.test_latents + "\"");
   return o;
@@ -77,6 +79,7 @@ nlohmann::json RvaeOptions::to_json() const {
     j["labels"] = true;
     j["label_dropout"] = label_dropout;
   }
+  if (free_running > 0) j["free_running"] = free_running;
   return j;
 }
 
@@ -184,15 +187,21 @@ torch::Tensor RvaeImpl::encode_control(const torch::Tensor& control, const torch
   return control_encoder->forward(padded);
 }
 
-torch::Tensor RvaeImpl::run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents) {
+torch::Tensor RvaeImpl::run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents,
+                                    const torch::Tensor& use_latent) {
   const int64_t l = control_code.size(1), k = latents.size(1);
   if (k < 1 || k > l) throw Error("rvae: run_decoder needs 1 to L latents");
+  if (use_latent.defined() && (use_latent.dim() != 2 || use_latent.size(0) != latents.size(0) || use_latent.size(1) != k))
+    throw Error("rvae: use_latent must be [B, K]");
   std::vector<torch::Tensor> states;
   states.reserve(l);
   torch::Tensor prev;
   for (int64_t t = 0; t < l; ++t) {
     const bool teacher = t < k;
-    prev = cell->forward(prev, control_code.select(1, t), teacher ? latents.select(1, t) : torch::Tensor(), teacher);
+    torch::Tensor state = teacher ? latents.select(1, t) : torch::Tensor();
+    if (teacher && t > 0 && use_latent.defined())
+      state = torch::where(use_latent.select(1, t).unsqueeze(1).to(torch::kBool), state, prev);
+    prev = cell->forward(prev, control_code.select(1, t), state, teacher);
     states.push_back(prev);
   }
   return torch::stack(states, 1);
@@ -242,9 +251,21 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
   auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(post.mean.scalar_type()))
                  .to(post.mean.device());
   auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
-  auto x_hat = decode_canvas(run_decoder(hc, z)).narrow(1, 0, t);
+  torch::Tensor use_latent;  // [B, L] 1 where a step is set to its latent
+  if (options_.free_running >= 1.0) {
+    // Algorithm 1's model, in training and validation alike: only the first step takes a latent.
+    use_latent = torch::zeros({z.size(0), z.size(1)});
+    use_latent.select(1, 0).fill_(1.0);
+  } else if (is_training() && options_.free_running > 0) {
+    use_latent = torch::bernoulli(torch::full({z.size(0), z.size(1)}, 1.0 - options_.free_running));
+    use_latent.select(1, 0).fill_(1.0);
+  }
+  if (use_latent.defined()) use_latent = use_latent.to(z.device());
+  auto x_hat = decode_canvas(run_decoder(hc, z, use_latent)).narrow(1, 0, t);
   auto recon = (0.5 * (x_hat - pose).pow(2).sum(-1) + 0.5 * d * kLog2Pi).mean();      // per frame
-  auto kl = kl_to_unit_gaussian(post.mean, post.logvar).sum(1).mean() / static_cast<double>(t);
+  auto kl_steps = kl_to_unit_gaussian(post.mean, post.logvar);  // [B, L]
+  if (use_latent.defined()) kl_steps = kl_steps * use_latent.to(kl_steps.dtype());  // unused latents cost nothing
+  auto kl = kl_steps.sum(1).mean() / static_cast<double>(t);
   const double w = is_training() ? kl_now_ : options_.kl_weight;
   auto total = (recon + w * kl) / static_cast<double>(d);
   if (options_.l1 > 0 && is_training()) {

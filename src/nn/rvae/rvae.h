@@ -52,6 +52,12 @@ struct RvaeOptions {
   // every frame (nn/label_features.h). Off in runs made before labels were supported.
   bool labels = false;
   double label_dropout = 0.1;  // training: probability that a window's label is replaced by none
+  // Training: probability that a reduced step after the first runs from the previous cell state
+  // instead of being set to its latent (its KL is then not counted: the latent is unused). The
+  // paper trains with every step set to its latent (0) but samples with the cell running freely
+  // after the first (Algorithm 1), a mode training never exercises; 1 trains exactly the model
+  // Algorithm 1 samples from. See the README.
+  double free_running = 0.0;
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -132,8 +138,11 @@ class RvaeImpl : public MotionModel {
   bool takes_labels() const override { return label_dim_ > 0; }
   // Runs the cell over the L reduced steps: h_c [B, L, Hc]; latents [B, K, Z] (K >= 1). Steps
   // k < K use latents[k] as the state entering the step (teacher_latent); steps k >= K run
-  // from the previous cell state. K = L is the training mode. Returns the canvas [B, L, Z].
-  torch::Tensor run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents);
+  // from the previous cell state. K = L is the training mode. use_latent (optional [B, K] bool,
+  // step 0 must be true) lets a row run from its previous state at a step < K where it is false.
+  // Returns the canvas [B, L, Z].
+  torch::Tensor run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents,
+                            const torch::Tensor& use_latent = {});
   // canvas [B, L, Z] -> poses [B, L * R, D] (the caller crops).
   torch::Tensor decode_canvas(const torch::Tensor& canvas);
   // Closed-form KL(N(mean, exp(logvar)) || N(0, I)) summed over the last dimension: [B, L].

@@ -1,0 +1,124 @@
+#!/usr/bin/python3
+"""Walking samples of a model beside real held-out walks, judged by the independent check
+(../shared/checks/natural_motion.py): v_tol95, foot-skating ratio and mean step duration, as
+generated/real ratios. Two settings, as issue "natural motion" asks:
+
+  1. along the validation split's own controls: for every held-out original (not mirrored) clip of
+     the given contents, --n samples along its (smoothed) control, against the clips' source BVH;
+  2. along synthetic paths drawn as a user would (curve, zigzag, stop-and-go, straight lines at
+     0.8-1.8 m/s), against the same real clips.
+
+    scripts/natural_eval.py RUN DATASET --out DIR [--contents walk] [--n 2] [--max-clips 30]
+        [--mosyn build/mosyn] [--style S] [--foot-lock] [--json OUT.json]
+
+Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure.
+"""
+import argparse, json, os, re, struct, subprocess, sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CHECK = os.path.normpath(os.path.join(HERE, "..", "..", "shared", "checks", "natural_motion.py"))
+
+# name -> (path, speed m/s): what a user draws. Coordinates in metres.
+PATHS = {
+    "curve": ("0,0 0,3 2,5 5,5 7,3", 1.3),
+    "zigzag": ("0,0 2,2 0,4 2,6 0,8", 1.2),
+    "stop-and-go": ("0,0 0,3,2 3,5,2 3,8", 1.3),
+    "straight-0.8": ("0,0 0,8", 0.8),
+    "straight-1.3": ("0,0 0,10", 1.3),
+    "straight-1.8": ("0,0 0,12", 1.8),
+}
+
+
+def val_clips(dataset, contents):
+    """(index in the val split, source, content) of original clips of the given contents."""
+    info = json.load(open(os.path.join(dataset, "dataset.json")))
+    labels = info["content_labels"]
+    pd, cd = info["layout"]["pose_dim"], info["layout"]["control_dim"]
+    data = open(os.path.join(dataset, "val.bin"), "rb").read()
+    n = struct.unpack_from("<I", data, 20)[0]
+    off, out = 8 + 16 + 8, []
+    for i in range(n):
+        (slen,) = struct.unpack_from("<I", data, off); off += 4
+        source = data[off:off + slen].decode(); off += slen
+        content, style, flags, frames = struct.unpack_from("<iiBI", data, off); off += 13
+        off += 4 * frames * (pd + cd)
+        name = labels[content] if 0 <= content < len(labels) else ""
+        if flags == 0 and name in contents:
+            out.append((i, source, name))
+    return info, out
+
+
+def run(cmd):
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit("failed: " + " ".join(cmd) + "\n" + r.stderr)
+    return r.stdout
+
+
+def check(generated, real):
+    out = run(["/usr/bin/python3", CHECK, *generated, "--real", *real])
+    vals = {}
+    for line in out.splitlines():
+        m = re.match(r"(\w+)\s+generated\s+(\S+)\s+real\s+(\S+)\s+ratio\s+(\S+)", line)
+        if m:
+            vals[m.group(1)] = dict(generated=float(m.group(2)), real=float(m.group(3)), ratio=float(m.group(4)))
+    return vals
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("run"); ap.add_argument("dataset")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--contents", default="walk")
+    ap.add_argument("--n", type=int, default=2)
+    ap.add_argument("--max-clips", type=int, default=30)
+    ap.add_argument("--mosyn", default=os.path.join(HERE, "..", "build", "mosyn"))
+    ap.add_argument("--style", default="")
+    ap.add_argument("--foot-lock", action="store_true")
+    ap.add_argument("--json", default="")
+    ap.add_argument("--threads", default="1")
+    a = ap.parse_args()
+    info, clips = val_clips(a.dataset, a.contents.split(","))
+    if a.max_clips and len(clips) > a.max_clips:
+        clips = [clips[i * len(clips) // a.max_clips] for i in range(a.max_clips)]
+    source_dir = info["source_dirs"][0] if info.get("source_dirs") else info["source_dir"]
+    real = [os.path.join(source_dir, c[1]) for c in clips]
+    extra = (["--style", a.style] if a.style else []) + (["--foot-lock"] if a.foot_lock else [])
+    results = {}
+    gen = []
+    for idx, source, content in clips:
+        d = os.path.join(a.out, "val")
+        label = ["--content", content] if takes_labels(a.run) else []
+        run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx), "--data", a.dataset,
+             "--clip", str(idx), "--prefix", f"clip{idx:04d}", "--threads", a.threads] + label + extra)
+        gen += [os.path.join(d, f"clip{idx:04d}_{k:03d}.bvh") for k in range(a.n)]
+    results["validation controls"] = check(gen, real)
+    all_paths = []
+    for name, (path, speed) in PATHS.items():
+        d = os.path.join(a.out, name)
+        label = ["--content", "walk"] if takes_labels(a.run) else []
+        run([a.mosyn, "sample", a.run, "--out", d, "--n", "4", "--seed", "7", "--path", path, "--speed", str(speed),
+             "--prefix", name, "--threads", a.threads] + label + extra)
+        files = [os.path.join(d, f"{name}_{k:03d}.bvh") for k in range(4)]
+        all_paths += files
+        results["path " + name] = check(files, real)
+    results["all synthetic paths"] = check(all_paths, real)
+    print(f"| {a.run} ({len(clips)} held-out {a.contents} clips) | v_tol95 cm/s (ratio) | skating (ratio) | step s (ratio) |")
+    print("|---|---|---|---|")
+    for k, v in results.items():
+        cells = [f"{v[m]['generated']:.3g} ({v[m]['ratio']:.2f})" for m in ("v_tol95", "skating", "step_s")]
+        print(f"| {k} | " + " | ".join(cells) + " |")
+    r = results["validation controls"]
+    print(f"| real clips | {r['v_tol95']['real']:.3g} | {r['skating']['real']:.3g} | {r['step_s']['real']:.3g} |")
+    if a.json:
+        json.dump(dict(run=a.run, dataset=a.dataset, clips=[c[1] for c in clips], n=a.n, paths=PATHS,
+                       foot_lock=a.foot_lock, style=a.style, results=results), open(a.json, "w"), indent=1)
+
+
+def takes_labels(run_dir):
+    cfg = json.load(open(os.path.join(run_dir, "config.json")))
+    return bool(cfg.get("model", {}).get("labels", False))
+
+
+if __name__ == "__main__":
+    main()
