@@ -92,6 +92,25 @@ Eigen::Quaterniond rotation_between(const Eigen::Vector3d& a, const Eigen::Vecto
 
 }  // namespace
 
+void reach_with_leg(const Skeleton& skeleton, const WorldPoses& world, int t, const LegChain& leg,
+                    const Eigen::Vector3d& target, Motion* motion, int motion_frame) {
+  const Eigen::Vector3d hip = world.position(t, leg.hip), knee = world.position(t, leg.knee);
+  const Eigen::Vector3d ankle = world.position(t, leg.ankle);
+  const double upper = (knee - hip).norm(), lower = (ankle - knee).norm();
+  const Eigen::Vector3d new_knee = two_bone_knee(hip, knee, target, upper, lower);
+  const int hip_parent = skeleton.parents[leg.hip];
+  const Eigen::Quaterniond parent_world = hip_parent >= 0 ? world.rotation(t, hip_parent) : Eigen::Quaterniond::Identity();
+  // Hip: swing the thigh onto the new knee; knee: swing the shin onto the target.
+  const Eigen::Quaterniond hip_world = rotation_between(knee - hip, new_knee - hip) * world.rotation(t, leg.hip);
+  const Eigen::Vector3d shin = hip_world * (world.rotation(t, leg.hip).conjugate() * (ankle - knee));
+  const Eigen::Quaterniond knee_local = world.rotation(t, leg.hip).conjugate() * world.rotation(t, leg.knee);
+  const Eigen::Quaterniond knee_world = rotation_between(shin, target - new_knee) * (hip_world * knee_local);
+  motion->rotation(motion_frame, leg.hip) = (parent_world.conjugate() * hip_world).normalized();
+  motion->rotation(motion_frame, leg.knee) = (hip_world.conjugate() * knee_world).normalized();
+  // The foot keeps its world orientation, so the toes stay flat where they were planted.
+  motion->rotation(motion_frame, leg.ankle) = (knee_world.conjugate() * world.rotation(t, leg.ankle)).normalized();
+}
+
 std::vector<LegChain> find_legs(const Skeleton& skeleton) {
   std::vector<LegChain> legs;
   for (int j = 0; j < skeleton.num_joints(); ++j) {
@@ -138,31 +157,63 @@ Motion foot_lock(const Skeleton& skeleton, const Motion& motion, const FootLockO
   const int up = skeleton.up_axis;
   for (const LegChain& leg : legs) {
     const AnkleTargets pins = pin_contacts(skeleton, world, leg.ankle, o, motion.fps, r);
-    const int hip_parent = skeleton.parents[leg.hip];
     for (int t = 0; t < motion.num_frames; ++t) {
       if (pins.weight[t] <= 0) continue;
-      const Eigen::Vector3d hip = world.position(t, leg.hip), knee = world.position(t, leg.knee);
       const Eigen::Vector3d ankle = world.position(t, leg.ankle);
-      // Horizontal pin only: the ankle keeps its own height (the model's lift and roll).
       Eigen::Vector3d target = ankle + pins.weight[t] * (pins.target[t] - ankle);
-      target[up] = ankle[up];
-      Eigen::Vector3d moved = target - ankle;
-      moved[up] = 0;
-      r->max_correction_m = std::max(r->max_correction_m, moved.norm() * mpu);
-      const double upper = (knee - hip).norm(), lower = (ankle - knee).norm();
-      const Eigen::Vector3d new_knee = two_bone_knee(hip, knee, target, upper, lower);
-      // Hip: swing the thigh onto the new knee; knee: swing the shin onto the target.
-      const Eigen::Quaterniond parent_world =
-          hip_parent >= 0 ? world.rotation(t, hip_parent) : Eigen::Quaterniond::Identity();
-      const Eigen::Quaterniond hip_world = rotation_between(knee - hip, new_knee - hip) * world.rotation(t, leg.hip);
-      const Eigen::Vector3d shin = hip_world * (world.rotation(t, leg.hip).conjugate() * (ankle - knee));
-      const Eigen::Quaterniond knee_world =
-          rotation_between(shin, target - new_knee) * (hip_world * out.rotation(t, leg.knee));
-      out.rotation(t, leg.hip) = (parent_world.conjugate() * hip_world).normalized();
-      out.rotation(t, leg.knee) = (hip_world.conjugate() * knee_world).normalized();
-      // The foot keeps its world orientation, so the toes stay flat where they were planted.
-      out.rotation(t, leg.ankle) = (knee_world.conjugate() * world.rotation(t, leg.ankle)).normalized();
+      target[up] = ankle[up];  // horizontal pin only: the ankle keeps its own height (lift and roll)
+      r->max_correction_m = std::max(r->max_correction_m, (target - ankle).norm() * mpu);
+      reach_with_leg(skeleton, world, t, leg, target, &out, t);
     }
+  }
+  return out;
+}
+
+StreamingFootLock::StreamingFootLock(const Skeleton& skeleton, double fps, const FootLockOptions& options)
+    : skeleton_(skeleton), options_(options), fps_(fps), legs_(find_legs(skeleton)) {
+  if (!(fps > 0)) throw Error("foot lock: fps must be positive");
+  if (!(options.contact_height_m > 0) || !(options.contact_speed_mps > 0) || !(options.blend_s >= 0))
+    throw Error("foot lock: thresholds must be positive and durations non-negative");
+  states_.resize(legs_.size());
+}
+
+void StreamingFootLock::reset() { states_.assign(legs_.size(), LegState{}); }
+
+Motion StreamingFootLock::apply(const Motion& frame) {
+  if (frame.num_frames != 1 || frame.num_joints != skeleton_.num_joints())
+    throw Error("foot lock: streaming frames must be one frame of the skeleton's joints");
+  Motion out = frame;
+  if (legs_.empty()) return out;
+  const WorldPoses world = forward_kinematics(skeleton_, frame);
+  const double mpu = skeleton_.meters_per_unit > 0 ? skeleton_.meters_per_unit : 1.0;
+  const int up = skeleton_.up_axis;
+  const size_t history = static_cast<size_t>(std::max(1.0, 2.0 * fps_));  // floor: lowest of the last 2 s
+  const double blend_step = options_.blend_s > 0 ? 1.0 / (options_.blend_s * fps_) : 1.0;
+  for (size_t k = 0; k < legs_.size(); ++k) {
+    LegState& st = states_[k];
+    const Eigen::Vector3d ankle = world.position(0, legs_[k].ankle);
+    st.heights.push_back(ankle[up]);
+    if (st.heights.size() > history) st.heights.pop_front();
+    const double floor = *std::min_element(st.heights.begin(), st.heights.end());
+    const double above_m = (ankle[up] - floor) * mpu;
+    Eigen::Vector3d moved = st.has_previous ? Eigen::Vector3d(ankle - st.previous) : Eigen::Vector3d::Zero();
+    moved[up] = 0;
+    const double speed = moved.norm() * mpu * fps_;
+    st.previous = ankle;
+    st.has_previous = true;
+    Eigen::Vector3d from_pin = ankle - st.pin;
+    from_pin[up] = 0;
+    if (!st.contact && above_m < options_.contact_height_m && speed < options_.contact_speed_mps) {
+      st.contact = true;
+      st.pin = ankle;
+    } else if (st.contact && (above_m > 1.5 * options_.contact_height_m || from_pin.norm() * mpu > kMaxStretchM)) {
+      st.contact = false;  // lifted, or pulled too far by the body: let go and blend out
+    }
+    st.weight = st.contact ? std::min(1.0, st.weight + blend_step) : std::max(0.0, st.weight - blend_step);
+    if (st.weight <= 0) continue;
+    Eigen::Vector3d target = ankle + st.weight * (st.pin - ankle);
+    target[up] = ankle[up];
+    reach_with_leg(skeleton_, world, 0, legs_[k], target, &out, 0);
   }
   return out;
 }

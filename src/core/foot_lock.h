@@ -7,8 +7,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <deque>
 #include <vector>
 
+#include "core/kinematics.h"
 #include "core/skeleton.h"
 
 namespace mosyn {
@@ -35,6 +37,12 @@ std::vector<LegChain> find_legs(const Skeleton& skeleton);
 Eigen::Vector3d two_bone_knee(const Eigen::Vector3d& hip, const Eigen::Vector3d& knee, const Eigen::Vector3d& target,
                               double upper_length, double lower_length);
 
+// Moves one leg of frame t of `world` (FK of a motion) so its ankle lands on target: hip and knee
+// rotations from two_bone_knee, the foot keeping its world orientation; writes the three local
+// rotations into frame motion_frame of *motion.
+void reach_with_leg(const Skeleton& skeleton, const WorldPoses& world, int t, const LegChain& leg,
+                    const Eigen::Vector3d& target, Motion* motion, int motion_frame);
+
 struct FootLockReport {
   int contacts = 0;                // contact intervals pinned over all legs
   double max_correction_m = 0.0;   // largest horizontal ankle move
@@ -47,5 +55,39 @@ struct FootLockReport {
 // that does not fit the skeleton.
 Motion foot_lock(const Skeleton& skeleton, const Motion& motion, const FootLockOptions& options = {},
                  FootLockReport* report = nullptr);
+
+// The causal form for frame-by-frame generation (nn::GeneratorOptions::foot_lock): a contact
+// starts when an ankle comes within contact_height_m of its floor (its lowest height over the
+// last 2 s) below contact_speed_mps, and pins the ankle where it is; it ends when the ankle rises
+// above 1.5 contact_height_m or the body pulls it more than kMaxStretchM from the pin. The pin
+// blends in and out over blend_s. min_contact_s does not apply (the future is unknown).
+class StreamingFootLock {
+ public:
+  static constexpr double kMaxStretchM = 0.25;
+
+  // Throws mosyn::Error for invalid options or fps.
+  StreamingFootLock(const Skeleton& skeleton, double fps, const FootLockOptions& options = {});
+  // The next frame (a one-frame motion in world placement) with its feet pinned.
+  Motion apply(const Motion& frame);
+  // Forgets every contact (a new stream).
+  void reset();
+  // False when the skeleton has no legs find_legs recognises: apply() changes nothing.
+  bool has_legs() const { return !legs_.empty(); }
+
+ private:
+  struct LegState {
+    bool contact = false;
+    double weight = 0;             // 0 free .. 1 pinned
+    Eigen::Vector3d pin = Eigen::Vector3d::Zero();
+    Eigen::Vector3d previous = Eigen::Vector3d::Zero();  // last frame's own (unpinned) ankle
+    bool has_previous = false;
+    std::deque<double> heights;    // recent ankle heights, skeleton units
+  };
+  Skeleton skeleton_;
+  FootLockOptions options_;
+  double fps_;
+  std::vector<LegChain> legs_;
+  std::vector<LegState> states_;
+};
 
 }  // namespace mosyn

@@ -140,30 +140,23 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
   return layout;
 }
 
-void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout, std::vector<float>* pose,
-            std::vector<float>* control) {
+void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout,
+                         const GroundTrajectory& ground, std::vector<float>* pose) {
   check_layout(skeleton, layout);
   if (motion.num_joints != skeleton.num_joints())
     throw Error("encode: motion has " + std::to_string(motion.num_joints) + " joints, skeleton " +
                 std::to_string(skeleton.num_joints()));
   const int num_frames = motion.num_frames;
+  if (static_cast<int>(ground.positions.size()) != num_frames || static_cast<int>(ground.headings_rad.size()) != num_frames)
+    throw Error("encode: the trajectory has " + std::to_string(ground.positions.size()) + " frames, the motion " +
+                std::to_string(num_frames));
   const int num_joints = skeleton.num_joints();
   const int root = layout.root_joint;
   const double mpu = skeleton.meters_per_unit;
   const WorldPoses world = forward_kinematics(skeleton, motion);
-  const GroundTrajectory ground = control_trajectory(skeleton, motion, layout);
-  const std::vector<RootDelta> deltas = root_deltas(skeleton, ground);
   const std::array<int, 2> floor = floor_axes(skeleton);
-
   pose->assign(static_cast<size_t>(num_frames) * layout.pose_dim, 0.0f);
-  control->assign(static_cast<size_t>(num_frames) * layout.control_dim, 0.0f);
   for (int t = 0; t < num_frames; ++t) {
-    float* c = control->data() + static_cast<size_t>(t) * layout.control_dim;
-    if (t > 0) {  // delta[0] is zero by definition
-      c[0] = static_cast<float>(deltas[t].sideways * mpu);
-      c[1] = static_cast<float>(deltas[t].forward * mpu);
-      c[2] = static_cast<float>(deltas[t].turn_rad);
-    }
     const Eigen::Quaterniond heading_inv = heading_rotation(skeleton, ground.headings_rad[t]).conjugate();
     float* p = pose->data() + static_cast<size_t>(t) * layout.pose_dim;
     if (layout.form == PoseForm::kRotations) {
@@ -189,6 +182,25 @@ void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout&
         for (int k = 0; k < 3; ++k) p[3 * j + k] = static_cast<float>(local[k]);
       }
     }
+  }
+}
+
+void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout, std::vector<float>* pose,
+            std::vector<float>* control) {
+  check_layout(skeleton, layout);
+  if (motion.num_joints != skeleton.num_joints())
+    throw Error("encode: motion has " + std::to_string(motion.num_joints) + " joints, skeleton " +
+                std::to_string(skeleton.num_joints()));
+  const GroundTrajectory ground = control_trajectory(skeleton, motion, layout);
+  encode_pose_against(skeleton, motion, layout, ground, pose);
+  const std::vector<RootDelta> deltas = root_deltas(skeleton, ground);
+  const double mpu = skeleton.meters_per_unit;
+  control->assign(static_cast<size_t>(motion.num_frames) * layout.control_dim, 0.0f);
+  for (int t = 1; t < motion.num_frames; ++t) {  // delta[0] is zero by definition
+    float* c = control->data() + static_cast<size_t>(t) * layout.control_dim;
+    c[0] = static_cast<float>(deltas[t].sideways * mpu);
+    c[1] = static_cast<float>(deltas[t].forward * mpu);
+    c[2] = static_cast<float>(deltas[t].turn_rad);
   }
 }
 

@@ -86,6 +86,13 @@ GroundTrajectory control_trajectory(const Skeleton& skeleton, const Motion& moti
 void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout,
             std::vector<float>* pose, std::vector<float>* control);
 
+// Pose features only, of a motion against a given trajectory ([T] floor positions in skeleton
+// units and headings; normally control_trajectory's): what encode writes as pose, for callers
+// that hold the trajectory themselves (the real-time generator, whose root comes from the
+// control). Throws mosyn::Error when the motion, skeleton, layout and trajectory disagree.
+void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout,
+                         const GroundTrajectory& trajectory, std::vector<float>* pose);
+
 // Decodes features back to a motion on the skeleton, integrating the control from the given
 // start position (skeleton units, up coordinate ignored) and heading. For kPositions this fits
 // joint rotations by inverse kinematics.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/foot_lock.h"
 #include "nn/run.h"
 
 namespace mosyn::nn {
@@ -34,6 +35,11 @@ struct GeneratorOptions {
   // control. < 0 = the run's dataset root_smoothing_s (none for runs on the raw hip trajectory);
   // 0 = off (controls used as given, e.g. controls that come from a smoothed dataset or path).
   double control_smoothing_s = -1.0;
+  // Clean feet for users who need them (off by default: the model's raw output): each generated
+  // frame is decoded on the run's skeleton at the character's root, its planted ankles pinned by
+  // core/foot_lock.h StreamingFootLock, and encoded again, so step() returns foot-locked features.
+  bool foot_lock = false;
+  FootLockOptions foot_lock_options;
   int warmup_frames = 0;     // frames of standing generated and dropped at (re)start, so the first
                             // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };

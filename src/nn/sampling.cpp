@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/trajectory.h"
+#include "data/representation.h"
 #include "nn/generator.h"
 #include "nn/model.h"
 #include "nn/standardiser.h"
@@ -121,6 +122,23 @@ struct Generator::Impl {
   double omega_per_frame = 0;  // 0 = no shaping
   std::vector<double> shaped, shaped_rate;
   std::vector<float> last_control;
+  std::vector<StreamingFootLock> foot_locks;  // per character, with options.foot_lock
+
+  // Pins the planted feet of character k's raw pose [D] in place (GeneratorOptions::foot_lock).
+  void lock_feet(int k, float* pose) {
+    if (!foot_locks[k].has_legs()) return;
+    const auto& info = run.dataset;
+    const RootPose& r = roots[k];
+    const std::vector<float> still(static_cast<size_t>(run.context.control_dim), 0.0f);
+    const Motion frame = data::decode(info.skeleton, info.layout, pose, still.data(), 1, info.fps, r.position,
+                                      r.heading_rad);
+    GroundTrajectory here;
+    here.positions = {r.position};
+    here.headings_rad = {r.heading_rad};
+    std::vector<float> locked;
+    data::encode_pose_against(info.skeleton, foot_locks[k].apply(frame), info.layout, here, &locked);
+    std::copy(locked.begin(), locked.end(), pose);
+  }
 
   // One frame of a critically damped second-order filter x'' = w^2 (u - x) - 2 w x' (exact
   // discretisation of its free response over one frame, input held constant).
@@ -174,6 +192,10 @@ struct Generator::Impl {
     shaped.assign(values, 0.0);
     shaped_rate.assign(values, 0.0);
     last_control.assign(values, 0.0f);
+    foot_locks.clear();
+    if (options.foot_lock)
+      for (int k = 0; k < options.batch; ++k)
+        foot_locks.emplace_back(run.dataset.skeleton, run.dataset.fps, options.foot_lock_options);
   }
 };
 
@@ -213,7 +235,9 @@ std::vector<float> Generator::step(const std::vector<float>& given) {
     r.heading_rad = traj.headings_rad.back();
   }
   ++m.frames;
-  const float* p = pose.data_ptr<float>();
+  float* p = pose.data_ptr<float>();
+  if (m.options.foot_lock)
+    for (int64_t k = 0; k < b; ++k) m.lock_feet(static_cast<int>(k), p + k * d);
   return std::vector<float>(p, p + b * d);
 }
 

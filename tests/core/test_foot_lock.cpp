@@ -71,9 +71,28 @@ TEST(FootLock, PinsSlidingFeetAndTouchesOnlyTheLegs) {
     for (int j = 0; j < s.num_joints(); ++j) {
       bool in_leg = false;
       for (const LegChain& leg : legs) in_leg = in_leg || j == leg.hip || j == leg.knee || j == leg.ankle;
-      if (!in_leg) EXPECT_TRUE(locked.rotation(t, j).isApprox(m.rotation(t, j))) << s.joint_names[j];
+      if (!in_leg) {
+        EXPECT_TRUE(locked.rotation(t, j).isApprox(m.rotation(t, j))) << s.joint_names[j];
+      }
     }
   EXPECT_THROW(foot_lock(s, m, FootLockOptions{0.0, 0.4, 0.08, 0.1}), Error);
+
+  // Frame by frame: the first frame's ankle is pinned once the blend-in (3 frames) is done.
+  StreamingFootLock stream(s, 30.0);
+  for (int t = 0; t < frames; ++t) {
+    Motion one = Motion::rest(s, 1, 30.0);
+    for (int j = 0; j < s.num_joints(); ++j) {
+      one.rotation(0, j) = m.rotation(t, j);
+      one.translation(0, j) = m.translation(t, j);
+    }
+    const WorldPoses w = forward_kinematics(s, stream.apply(one));
+    for (const LegChain& leg : legs) {
+      if (t < 2) continue;
+      EXPECT_NEAR(w.position(0, leg.ankle).x(), before.position(0, leg.ankle).x(), 1e-6) << t;
+      EXPECT_NEAR(w.position(0, leg.ankle).z(), before.position(0, leg.ankle).z(), 1e-6) << t;
+    }
+  }
+  EXPECT_THROW(stream.apply(m), Error);  // one frame at a time
 }
 
 }  // namespace

@@ -137,6 +137,67 @@ TEST(Rvae, FreeRunningStepsAndTheirKl) {
   EXPECT_THROW(create_model("rvae", cfg, small_context()), Error);
 }
 
+// The conditional prior starts as N(0, I) (same loss as the paper's prior); once non-zero, its KL
+// is that of two diagonal Gaussians along the teacher-forced run, computed here by hand.
+TEST(Rvae, ConditionalPriorKlByHandAndSampling) {
+  nlohmann::json cfg = tiny_config();
+  cfg["latent_prior"] = "conditional";
+  cfg["prior_hidden"] = 7;
+  torch::manual_seed(1);
+  auto model = std::dynamic_pointer_cast<RvaeImpl>(create_model("rvae", cfg, small_context()));
+  auto plain = tiny_model();
+  model->to(torch::kFloat64);
+  plain->to(torch::kFloat64);
+  model->eval();
+  plain->eval();
+  {
+    torch::NoGradGuard ng;  // same shared weights
+    auto from = plain->named_parameters();
+    for (auto& kv : model->named_parameters())
+      if (from.contains(kv.key())) kv.value().copy_(from[kv.key()]);
+  }
+  auto pose = torch::randn({3, 19, 6}, torch::kFloat64), control = torch::randn({3, 19, 3}, torch::kFloat64);
+  torch::manual_seed(4);
+  const double kl_plain = plain->loss({pose, control, {}, {}}).terms.at("kl").item<double>();
+  torch::manual_seed(4);
+  EXPECT_NEAR(model->loss({pose, control, {}, {}}).terms.at("kl").item<double>(), kl_plain, 1e-9);
+
+  {
+    torch::NoGradGuard ng;
+    model->prior_out->weight.normal_(0, 0.3);
+    model->prior_out->bias.normal_(0, 0.3);
+  }
+  torch::NoGradGuard ng;
+  torch::manual_seed(5);
+  const double kl_loss = model->loss({pose, control, {}, {}}).terms.at("kl").item<double>();
+  // By hand with the same posterior sample (same seed, same draw order).
+  torch::manual_seed(5);
+  auto post = model->encode(pose);
+  auto hc = model->encode_control(control);
+  auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(torch::kFloat64));
+  auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
+  double total = RvaeImpl::kl_to_unit_gaussian(post.mean.narrow(1, 0, 1), post.logvar.narrow(1, 0, 1)).sum().item<double>();
+  torch::Tensor prev = model->cell->forward({}, hc.select(1, 0), z.select(1, 0), true);
+  for (int64_t k = 1; k < z.size(1); ++k) {
+    auto [pm, pv] = model->conditional_prior(prev, hc.select(1, k));
+    auto qm = post.mean.select(1, k), qv = post.logvar.select(1, k);
+    total += (0.5 * (pv - qv + (qv.exp() + (qm - pm).pow(2)) / pv.exp() - 1.0)).sum().item<double>();
+    prev = model->cell->forward(prev, hc.select(1, k), z.select(1, k), true);
+  }
+  EXPECT_NEAR(kl_loss, total / 3.0 / 19.0, 1e-9);
+
+  SampleRequest req;
+  req.control = torch::randn({2, 21, 3}, torch::kFloat64);
+  req.seed = 3;
+  auto a = model->sample(req), b = model->sample(req);
+  EXPECT_TRUE(torch::equal(a, b));
+  req.seed = 4;
+  EXPECT_FALSE(torch::equal(a, model->sample(req)));
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 21, 6}));
+  cfg["free_running"] = 0.5;
+  EXPECT_THROW(create_model("rvae", cfg, small_context()), Error);
+}
+
 TEST(Rvae, KlMatchesClosedFormByHand) {
   // KL(N(m, s^2) || N(0, 1)) = 0.5 (m^2 + s^2 - 1 - log s^2) per dimension.
   auto mean = torch::tensor({0.5, -1.0}, torch::kFloat64).reshape({1, 1, 2});

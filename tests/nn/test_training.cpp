@@ -249,7 +249,9 @@ TEST(Sampling, GeneratorShapesLiveControls) {
     const double v = gen.last_control()[1];
     EXPECT_GE(v, previous - 1e-9);  // monotone: critically damped
     EXPECT_LE(v, 0.1 + 1e-6);       // no overshoot
-    if (f == 0) EXPECT_LT(v, 0.02);
+    if (f == 0) {
+      EXPECT_LT(v, 0.02);
+    }
     previous = v;
     travelled += v;
   }

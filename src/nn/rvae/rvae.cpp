@@ -38,6 +38,11 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
     else if (k == "labels") o.labels = config_bool(config, "labels", "rvae");
     else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "rvae");
     else if (k == "free_running") o.free_running = config_double(config, "free_running", "rvae");
+    else if (k == "prior_hidden") o.prior_hidden = config_int(config, "prior_hidden", "rvae");
+    else if (k == "latent_prior") {
+      if (!it.value().is_string()) throw Error("rvae config: latent_prior must be \"standard\" or \"conditional\"");
+      o.latent_prior = it.value().get<std::string>();
+    }
     else if (k == "test_latents") {
       if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
       o.test_latents = it.value().get<std::string>();
@@ -58,6 +63,11 @@ RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
   if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("rvae config: label_dropout must be in [0, 1]");
   if (!(o.free_running >= 0 && o.free_running <= 1)) throw Error("rvae config: free_running must be in [0, 1]");
+  if (o.latent_prior != "standard" && o.latent_prior != "conditional")
+    throw Error("rvae config: latent_prior must be \"standard\" or \"conditional\", not \"" + o.latent_prior + "\"");
+  if (o.prior_hidden < 1) throw Error("rvae config: prior_hidden must be >= 1");
+  if (o.latent_prior == "conditional" && o.free_running > 0)
+    throw Error("rvae config: a conditional latent prior draws every step's latent; free_running must be 0");
   if (o.test_latents != "first" && o.test_latents != "every_step")
     throw Error("rvae config: test_latents must be \"first\" or \"every_step\", not \"" + o.test_latents + "\"");
   return o;
@@ -80,6 +90,10 @@ nlohmann::json RvaeOptions::to_json() const {
     j["label_dropout"] = label_dropout;
   }
   if (free_running > 0) j["free_running"] = free_running;
+  if (latent_prior != "standard") {
+    j["latent_prior"] = latent_prior;
+    j["prior_hidden"] = prior_hidden;
+  }
   return j;
 }
 
@@ -146,6 +160,51 @@ RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     in = out;
   }
   kl_now_ = options.kl_weight;
+  if (options.latent_prior == "conditional") {
+    prior_hidden = register_module("prior_hidden", torch::nn::Linear(z + options.control_channels.back(), options.prior_hidden));
+    prior_out = register_module("prior_out", torch::nn::Linear(options.prior_hidden, 2 * z));
+    // Zero output: the prior starts as N(0, I), the paper's, and a warm start from a standard-prior
+    // run begins from exactly that model.
+    torch::NoGradGuard no_grad;
+    prior_out->weight.zero_();
+    prior_out->bias.zero_();
+  }
+}
+
+std::pair<torch::Tensor, torch::Tensor> RvaeImpl::conditional_prior(const torch::Tensor& prev,
+                                                                    const torch::Tensor& control_code) {
+  auto h = activation(prior_hidden->forward(torch::cat({prev, control_code}, -1)));
+  auto parts = prior_out->forward(h).chunk(2, -1);
+  return {parts[0], parts[1]};
+}
+
+torch::Tensor RvaeImpl::run_decoder_conditional(const torch::Tensor& control_code, const torch::Tensor& latents,
+                                                double temperature, at::Generator* gen,
+                                                std::pair<torch::Tensor, torch::Tensor>* prior) {
+  const int64_t l = control_code.size(1), k = latents.size(1);
+  if (k < 1 || k > l) throw Error("rvae: run_decoder needs 1 to L latents");
+  if (k < l && gen == nullptr) throw Error("rvae: drawing latents needs a generator");
+  std::vector<torch::Tensor> states, means, logvars;
+  torch::Tensor prev;
+  for (int64_t t = 0; t < l; ++t) {
+    torch::Tensor z;
+    if (t > 0 && (prior || t >= k)) {
+      auto [mean, logvar] = conditional_prior(prev, control_code.select(1, t));
+      if (prior) {
+        means.push_back(mean);
+        logvars.push_back(logvar);
+      }
+      if (t >= k) {
+        auto eps = torch::randn(mean.sizes(), *gen, torch::TensorOptions().dtype(mean.scalar_type())).to(mean.device());
+        z = mean + temperature * torch::exp(0.5 * logvar) * eps;
+      }
+    }
+    if (t < k) z = latents.select(1, t);
+    prev = cell->forward(prev, control_code.select(1, t), z, true);
+    states.push_back(prev);
+  }
+  if (prior && !means.empty()) *prior = {torch::stack(means, 1), torch::stack(logvars, 1)};
+  return torch::stack(states, 1);
 }
 
 void RvaeImpl::set_progress(int step, int total_steps) {
@@ -261,9 +320,18 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     use_latent.select(1, 0).fill_(1.0);
   }
   if (use_latent.defined()) use_latent = use_latent.to(z.device());
-  auto x_hat = decode_canvas(run_decoder(hc, z, use_latent)).narrow(1, 0, t);
+  std::pair<torch::Tensor, torch::Tensor> prior;
+  auto canvas = conditional() ? run_decoder_conditional(hc, z, 1.0, nullptr, &prior) : run_decoder(hc, z, use_latent);
+  auto x_hat = decode_canvas(canvas).narrow(1, 0, t);
   auto recon = (0.5 * (x_hat - pose).pow(2).sum(-1) + 0.5 * d * kLog2Pi).mean();      // per frame
   auto kl_steps = kl_to_unit_gaussian(post.mean, post.logvar);  // [B, L]
+  if (conditional() && prior.first.defined()) {
+    // Steps after the first against the learned prior: KL of two diagonal Gaussians.
+    const int64_t l = post.mean.size(1);
+    auto qm = post.mean.narrow(1, 1, l - 1), qv = post.logvar.narrow(1, 1, l - 1);
+    auto kl_rest = 0.5 * (prior.second - qv + (qv.exp() + (qm - prior.first).pow(2)) / prior.second.exp() - 1.0).sum(-1);
+    kl_steps = torch::cat({kl_steps.narrow(1, 0, 1), kl_rest}, 1);
+  }
   if (use_latent.defined()) kl_steps = kl_steps * use_latent.to(kl_steps.dtype());  // unused latents cost nothing
   auto kl = kl_steps.sum(1).mean() / static_cast<double>(t);
   const double w = is_training() ? kl_now_ : options_.kl_weight;
@@ -323,6 +391,10 @@ torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
   if (label_dim_ > 0)
     labels = label_features(request.content, request.style, b, context_.num_content, context_.num_style, opts);
   auto hc = encode_control(control, labels);
+  if (conditional()) {
+    auto x = decode_canvas(run_decoder_conditional(hc, latents, request.temperature, &gen));
+    return x.narrow(1, p, t).contiguous();
+  }
   if (options_.test_latents == "every_step" && hc.size(1) > latents.size(1)) {
     auto rest = request.temperature * torch::randn({b, hc.size(1) - latents.size(1), z}, gen, cpu);
     latents = torch::cat({latents, rest.to(opts.device())}, 1);

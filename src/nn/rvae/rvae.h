@@ -22,7 +22,10 @@
 #include <torch/nn/modules/conv.h>
 #include <torch/nn/modules/linear.h>
 
+#include <ATen/core/Generator.h>
+
 #include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -58,6 +61,13 @@ struct RvaeOptions {
   // after the first (Algorithm 1), a mode training never exercises; 1 trains exactly the model
   // Algorithm 1 samples from. See the README.
   double free_running = 0.0;
+  // Prior of the per-step latents. "standard": N(0, I) for every reduced step (the paper).
+  // "conditional": step 1 from N(0, I), step k > 1 from a learned Gaussian p(z_k | c_{k-1}, h_c,k)
+  // of the previous cell state and the step's control code (the learned prior of a VRNN, Chung et
+  // al. 2015), so latents drawn at generation time continue the gait the cell is in instead of
+  // restarting it at random; training minimises KL(q(z_k | x) || p(z_k | ...)). See the README.
+  std::string latent_prior = "standard";
+  int prior_hidden = 256;       // width of the conditional prior's hidden layer
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -143,6 +153,17 @@ class RvaeImpl : public MotionModel {
   // Returns the canvas [B, L, Z].
   torch::Tensor run_decoder(const torch::Tensor& control_code, const torch::Tensor& latents,
                             const torch::Tensor& use_latent = {});
+  // Conditional prior (latent_prior "conditional"): mean and log-variance [B, Z] of z_k given the
+  // previous cell state prev [B, Z] and the step's control code [B, Hc].
+  std::pair<torch::Tensor, torch::Tensor> conditional_prior(const torch::Tensor& prev, const torch::Tensor& control_code);
+  // The decoder with the conditional prior: steps k < K are set to latents[k] (and, with
+  // prior_out, the prior of every step k >= 1 is returned: mean, logvar [B, L - 1, Z]); steps
+  // k >= K draw z_k = mean + temperature * std * eps from the prior with generator gen.
+  torch::Tensor run_decoder_conditional(const torch::Tensor& control_code, const torch::Tensor& latents,
+                                        double temperature, at::Generator* gen,
+                                        std::pair<torch::Tensor, torch::Tensor>* prior_out = nullptr);
+  bool conditional() const { return options_.latent_prior == "conditional"; }
+
   // canvas [B, L, Z] -> poses [B, L * R, D] (the caller crops).
   torch::Tensor decode_canvas(const torch::Tensor& canvas);
   // Closed-form KL(N(mean, exp(logvar)) || N(0, I)) summed over the last dimension: [B, L].
@@ -154,6 +175,7 @@ class RvaeImpl : public MotionModel {
   ConvEncoder control_encoder{nullptr};
   RvaeCell cell{nullptr};
   torch::nn::ModuleList deconvs;
+  torch::nn::Linear prior_hidden{nullptr}, prior_out{nullptr};  // conditional prior only
 
  private:
   RvaeOptions options_;
