@@ -1,5 +1,7 @@
 // Real-time generation with mosyn::nn::Generator: four characters step together, one frame per
-// call, each walking at 1.2 m/s and turning at its own rate. Usage: realtime_walk [MODEL_DIR]
+// call, each walking at 1.2 m/s and turning at its own rate, each in its own style when the model
+// takes style labels. Usage: realtime_walk [MODEL_DIR]
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -15,7 +17,17 @@ int main(int argc, char** argv) try {
   options.seed = 42;  // same seed and controls give the same motion
   options.threads = 1;
   options.warmup_frames = 30;  // settle into a natural standing pose before the first frame
-  mosyn::nn::Generator generator(model_dir, options);
+  mosyn::nn::LoadedRun run = mosyn::nn::load_run(model_dir, {"checkpoint.pt", "cpu", options.threads});
+  std::vector<std::string> styles;  // one per character, from the model's vocabulary
+  if (run.takes_labels) {
+    const auto& vocabulary = run.dataset.style_labels;
+    for (const char* name : {"normal", "elderly", "youthful", "exhausted"}) {
+      const auto it = std::find(vocabulary.begin(), vocabulary.end(), name);
+      options.style.push_back(it == vocabulary.end() ? -1 : static_cast<int>(it - vocabulary.begin()));
+      styles.push_back(it == vocabulary.end() ? "any" : name);
+    }
+  }
+  mosyn::nn::Generator generator(std::move(run), options);
   const double fps = generator.run().dataset.fps;
 
   std::vector<float> control(options.batch * 3);  // [B, 3]: dx, dz (metres), dtheta (radians)
@@ -34,7 +46,8 @@ int main(int argc, char** argv) try {
   }
   for (int b = 0; b < options.batch; ++b) {
     const auto& root = generator.root(b);
-    std::printf("character %d: at (%.2f, %.2f) m, heading %.2f rad after %d frames\n", b,
+    std::printf("character %d (%s): at (%.2f, %.2f) m, heading %.2f rad after %d frames\n", b,
+                styles.empty() ? "no style" : styles[b].c_str(),
                 root.position.x() * generator.run().dataset.skeleton.meters_per_unit,
                 root.position.z() * generator.run().dataset.skeleton.meters_per_unit, root.heading_rad, frames);
   }

@@ -34,19 +34,25 @@ fi
 
 model=models/moglow-locomotion
 if [ -f "$model/checkpoint.pt" ]; then
-  echo "== mosyn sample: 4 different walks along one curved path from the shipped MoGlow model"
-  "$mosyn" sample "$model" --out "$out/curve" --prefix curve --n 4 --seed 1 --path "0,0 0,3 2,5 5,5 7,3" --positions
-  echo "== mosyn sample: stand still for 3 s, then walk 5 m"
-  "$mosyn" sample "$model" --out "$out/stand-walk" --prefix stand-walk --n 2 --seed 2 --path "0,0,3 0,5"
-  views=("$out"/curve/*.bvh "$out"/stand-walk/*.bvh)
+  echo "== mosyn sample: walks along one curved path from the shipped MoGlow model, in two styles"
+  for style in normal elderly; do
+    "$mosyn" sample "$model" --out "$out/curve" --prefix "curve-$style" --n 2 --seed 1 \
+      --path "0,0 0,3 2,5 5,5 7,3" --content walk --style "$style" --positions
+  done
+  echo "== mosyn sample: stop and go (stand 2 s at two corners), and stand still for 3 s then walk"
+  "$mosyn" sample "$model" --out "$out/stop-and-go" --prefix stop-and-go --n 2 --seed 3 \
+    --path "0,0 0,3,2 3,5,2 3,8" --content walk
+  "$mosyn" sample "$model" --out "$out/stand-walk" --prefix stand-walk --n 2 --seed 2 --path "0,0,3 0,5" --content walk
+  views=("$out"/curve/*.bvh "$out"/stop-and-go/*.bvh "$out"/stand-walk/*.bvh)
   rvae=models/rvae-locomotion
   held_out="$bandai/data/dataset-2_walk-turn-left_normal_031.bvh"  # a validation file of both models
   if [ -f "$rvae/checkpoint.pt" ]; then
     echo "== mosyn sample: the shipped recurrent VAE along the root path of a held-out clip, from its prior"
-    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-prior --n 3 --seed 1 --control "$held_out"
+    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-prior --n 3 --seed 1 --control "$held_out" \
+      --content walk-turn-left --style normal
     echo "== mosyn sample --continue: the recurrent VAE continues the clip's first 4 frames (its posterior)"
     "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-continued --n 2 --seed 2 --continue "$held_out" \
-      --observed-frames 4
+      --observed-frames 4 --content walk-turn-left --style normal
     views+=("$out"/rvae/*.bvh)
   fi
   echo "== pictures: a viewer page and a filmstrip"
@@ -54,6 +60,11 @@ if [ -f "$model/checkpoint.pt" ]; then
   "$mosyn" render "$out"/curve/*.bvh --out "$out/curve.png" --camera top --width 900 --height 600 --overlay
   "$mosyn" render "$out"/stand-walk/stand-walk_000.bvh --out "$out/stand-walk.png" --camera side --filmstrip 6 \
     --width 240 --height 320 --follow
+  for style in normal elderly; do
+    "$mosyn" render "$out/curve/curve-${style}_000.bvh" --out "$out/curve-$style.png" --camera side --filmstrip 8 \
+      --width 200 --height 300 --follow
+  done
+  "$mosyn" render "$out"/stop-and-go/*.bvh --out "$out/stop-and-go.png" --camera top --width 900 --height 600 --overlay
   if [ -f "$out/rvae/rvae-prior_000.bvh" ]; then
     "$mosyn" render "$out/rvae/rvae-prior_000.bvh" --out "$out/rvae.png" --camera side --filmstrip 8 \
       --width 200 --height 300 --follow

@@ -219,6 +219,7 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   const std::string ckpt = (fs::path(run_dir) / options.checkpoint).string();
   if (!fs::exists(ckpt)) throw Error(ckpt + ": checkpoint not found");
   run.step = load_checkpoint(ckpt, *run.model, nullptr, device).step;
+  run.takes_labels = run.model->takes_labels();
   run.model->eval();
   return run;
 }

@@ -28,6 +28,7 @@ struct LoadedRun {
   data::DatasetStats stats;         // standardisation statistics
   std::shared_ptr<MotionModel> model;  // in eval mode, on the requested device
   int step = 0;                     // optimiser steps of the loaded checkpoint
+  bool takes_labels = false;        // model->takes_labels(), for code without LibTorch headers
 };
 
 // Throws mosyn::Error naming the file when config.json, stats.json or the checkpoint is missing,
