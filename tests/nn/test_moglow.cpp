@@ -255,6 +255,44 @@ TEST(MoGlow, SamplingIsDeterministicPerSeedAndStreamsMatch) {
   EXPECT_TRUE(torch::allclose(d0, model->sample(req)));
 }
 
+// Look-ahead: the mean control over the next k frames (the last frame repeating past the end),
+// by hand; it joins the conditioning; a look-ahead model samples offline but refuses to stream.
+TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
+  torch::manual_seed(1);
+  nlohmann::json cfg = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.0}, {"lookahead", {1, 3}}};
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, small_context(6)));
+  model->to(torch::kFloat64);
+  randomise(*model);
+  model->eval();
+  EXPECT_EQ(model->cond_dim(), 2 * 6 + 3 * 3 + 2 * 3);
+  auto control = torch::randn({2, 7, 3}, torch::kFloat64);
+  auto f = model->lookahead_features(control);
+  ASSERT_EQ(f.sizes(), (std::vector<int64_t>{2, 7, 6}));
+  auto at = [&](int64_t b, int64_t t) { return control[b][std::min<int64_t>(t, 6)]; };
+  for (int64_t b = 0; b < 2; ++b)
+    for (int64_t t = 0; t < 7; ++t) {
+      EXPECT_TRUE(torch::allclose(f[b][t].narrow(0, 0, 3), at(b, t + 1)));
+      EXPECT_TRUE(torch::allclose(f[b][t].narrow(0, 3, 3), (at(b, t + 1) + at(b, t + 2) + at(b, t + 3)) / 3.0));
+    }
+  auto pose = torch::randn({2, 7, 6}, torch::kFloat64);
+  auto cond = model->conditioning(pose, control);
+  EXPECT_TRUE(torch::allclose(cond.narrow(2, 2 * 6 + 3 * 3, 6), f.narrow(1, 2, 5).transpose(0, 1)));
+  EXPECT_FALSE(model->supports_streaming());
+  SampleRequest req;
+  req.control = control;
+  req.seed = 3;
+  auto a = model->sample(req);
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 7, 6}));
+  EXPECT_TRUE(torch::equal(a, model->sample(req)));
+  // The path ahead matters: another future gives another present.
+  auto other = control.clone();
+  other.narrow(1, 3, 4).add_(1.0);
+  req.control = other;
+  EXPECT_FALSE(torch::allclose(a.select(1, 0), model->sample(req).select(1, 0)));
+  auto stream = model->begin_stream(req);
+  EXPECT_THROW(model->step_stream(*stream, control.select(1, 0)), mosyn::Error);
+}
+
 TEST(MoGlow, ConfigPresetsAndErrors) {
   auto ctx = small_context(6);
   ctx.pose_form = "positions";

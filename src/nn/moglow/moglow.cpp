@@ -5,6 +5,7 @@
 #include <torch/utils.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -46,6 +47,7 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
     else if (k == "scale_eps") o.scale_eps = config_double(config, "scale_eps", "moglow");
     else if (k == "labels") o.labels = config_bool(config, "labels", "moglow");
     else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "moglow");
+    else if (k == "lookahead") o.lookahead = config_positive_ints(config, "lookahead", "moglow");
     else throw Error("moglow config: unknown key '" + k + "'");
   }
   if (o.dropout < 0) o.dropout = context.pose_form == "positions" ? 0.95 : 0.6;
@@ -56,6 +58,9 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
   if (o.dropout > 1.0) throw Error("moglow config: dropout must be in [0, 1]");
   if (o.scale_eps < 0) throw Error("moglow config: scale_eps must be >= 0");
   if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("moglow config: label_dropout must be in [0, 1]");
+  if (o.lookahead.size() > 16) throw Error("moglow config: at most 16 look-ahead offsets");
+  for (int k : o.lookahead)
+    if (k > 1000) throw Error("moglow config: look-ahead offsets must be at most 1000 frames");
   return o;
 }
 
@@ -67,6 +72,7 @@ nlohmann::json MoGlowOptions::to_json() const {
     j["labels"] = true;
     j["label_dropout"] = label_dropout;
   }
+  if (!lookahead.empty()) j["lookahead"] = lookahead;
   return j;
 }
 
@@ -215,7 +221,8 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
     : MotionModel("MoGlow"), options_(options), context_(context) {
   const int d = context.pose_dim, c = context.control_dim, tau = options.tau;
   label_dim_ = options.labels ? context.num_content + context.num_style : 0;
-  cond_dim_ = tau * d + (tau + 1) * c + label_dim_;
+  lookahead_dim_ = c * static_cast<int>(options.lookahead.size());
+  cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
@@ -229,11 +236,28 @@ torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::T
   // unfold(1, w, 1): [B, windows, F, w]; window s covers frames s..s+w-1.
   auto hist = pose.narrow(1, 0, t - 1).unfold(1, tau, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
   auto ctrl = control.unfold(1, tau + 1, 1).permute({0, 1, 3, 2}).reshape({b, n, -1});
-  if (label_dim_ == 0) return torch::cat({hist, ctrl}, -1).transpose(0, 1);
-  auto lab = labels.defined() ? labels.to(pose.options()) : torch::zeros({b, label_dim_}, pose.options());
-  if (lab.dim() != 2 || lab.size(0) != b || lab.size(1) != label_dim_)
-    throw Error("moglow: labels must be [B, " + std::to_string(label_dim_) + "]");
-  return torch::cat({hist, ctrl, lab.unsqueeze(1).expand({b, n, label_dim_})}, -1).transpose(0, 1);
+  std::vector<torch::Tensor> parts = {hist, ctrl};
+  if (label_dim_ > 0) {
+    auto lab = labels.defined() ? labels.to(pose.options()) : torch::zeros({b, label_dim_}, pose.options());
+    if (lab.dim() != 2 || lab.size(0) != b || lab.size(1) != label_dim_)
+      throw Error("moglow: labels must be [B, " + std::to_string(label_dim_) + "]");
+    parts.push_back(lab.unsqueeze(1).expand({b, n, label_dim_}));
+  }
+  if (lookahead_dim_ > 0) parts.push_back(lookahead_features(control).narrow(1, tau, n));
+  return torch::cat(parts, -1).transpose(0, 1);
+}
+
+torch::Tensor MoGlowImpl::lookahead_features(const torch::Tensor& control) const {
+  if (lookahead_dim_ == 0) return {};
+  const int64_t b = control.size(0), t = control.size(1), c = control.size(2);
+  const int64_t longest = *std::max_element(options_.lookahead.begin(), options_.lookahead.end());
+  // Past the end the last control repeats; cumulative sums give every window mean at once.
+  auto padded = torch::cat({control, control.narrow(1, t - 1, 1).expand({b, longest, c})}, 1);
+  auto sums = torch::cat({torch::zeros({b, 1, c}, control.options()), padded.cumsum(1)}, 1);  // sums[i] = sum of frames < i
+  std::vector<torch::Tensor> parts;
+  for (int k : options_.lookahead)  // mean of frames t+1..t+k = (sums[t+k+1] - sums[t+1]) / k
+    parts.push_back((sums.narrow(1, k + 1, t) - sums.narrow(1, 1, t)) / static_cast<double>(k));
+  return torch::cat(parts, -1);
 }
 
 torch::Tensor MoGlowImpl::labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
@@ -367,6 +391,12 @@ std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& reque
 }
 
 torch::Tensor MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& control) {
+  if (lookahead_dim_ > 0)
+    throw Error("moglow: a model with look-ahead needs the path ahead and cannot stream frame by frame; use sample");
+  return next_frame(state, control, {});
+}
+
+torch::Tensor MoGlowImpl::next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead) {
   torch::NoGradGuard no_grad;
   auto& st = dynamic_cast<MoGlowStream&>(state);
   const int64_t b = st.pose_hist.size(0), d = context_.pose_dim;
@@ -375,6 +405,7 @@ torch::Tensor MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& c
   auto ctrl_full = torch::cat({st.ctrl_hist, control.to(st.options).unsqueeze(1)}, 1);  // [B, tau+1, C]
   std::vector<torch::Tensor> parts = {st.pose_hist.reshape({b, -1}), ctrl_full.reshape({b, -1})};
   if (st.labels.defined()) parts.push_back(st.labels);
+  if (lookahead.defined()) parts.push_back(lookahead.to(st.options));
   auto cond = torch::cat(parts, -1).unsqueeze(0);
   auto z = torch::randn({1, b, d}, st.generator, torch::TensorOptions().dtype(st.options.dtype())).to(st.options.device());
   auto x = z * st.temperature;
@@ -393,8 +424,10 @@ torch::Tensor MoGlowImpl::sample(const SampleRequest& request) {
   auto stream = begin_stream(request);
   std::vector<torch::Tensor> frames;
   frames.reserve(request.control.size(1));
+  torch::Tensor ahead;
+  if (lookahead_dim_ > 0 && request.control.size(1) > 0) ahead = lookahead_features(request.control);
   for (int64_t t = 0; t < request.control.size(1); ++t)
-    frames.push_back(step_stream(*stream, request.control.select(1, t)));
+    frames.push_back(next_frame(*stream, request.control.select(1, t), ahead.defined() ? ahead.select(1, t) : ahead));
   if (frames.empty())
     return torch::zeros({request.control.size(0), 0, context_.pose_dim}, steps.front()->actnorm->bias.options());
   return torch::stack(frames, 1);

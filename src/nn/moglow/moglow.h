@@ -38,6 +38,11 @@ struct MoGlowOptions {
   // every frame; nn/label_features.h). Off in runs made before labels were supported.
   bool labels = false;
   double label_dropout = 0.1;  // training: probability that a window's label is replaced by none
+  // Optional look-ahead of the path, as real-time character controllers use: for each offset k
+  // (frames), the mean control over frames t+1..t+k (where the path goes next: displacement and
+  // turn per frame; past the end of the control, its last frame repeats). Empty = causal (the
+  // paper). A model with look-ahead samples offline only (no frame-by-frame streaming).
+  std::vector<int> lookahead;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -146,7 +151,7 @@ class MoGlowImpl : public MotionModel {
   LossTerms loss(const Batch& batch) override;
 
   torch::Tensor sample(const SampleRequest& request) override;
-  bool supports_streaming() const override { return true; }
+  bool supports_streaming() const override { return options_.lookahead.empty(); }
   double default_warmup_s() const override { return 1.0; }
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
   torch::Tensor step_stream(StreamState& state, const torch::Tensor& control) override;
@@ -175,11 +180,15 @@ class MoGlowImpl : public MotionModel {
   // [B, label_dim()] (zeros when undefined).
   torch::Tensor conditioning(const torch::Tensor& pose, const torch::Tensor& control,
                              const torch::Tensor& labels = {}) const;
+  // With look-ahead, the control's look-ahead features of frames tau..T-1 are appended last.
 
   int cond_dim() const { return cond_dim_; }
   // Size of the label part of the conditioning: content + style vocabularies, or 0 without labels.
   int label_dim() const { return label_dim_; }
   bool takes_labels() const override { return label_dim_ > 0; }
+  // Look-ahead features [B, T, 3 * lookahead.size()] of a standardised control [B, T, C] (see
+  // MoGlowOptions::lookahead); undefined without look-ahead.
+  torch::Tensor lookahead_features(const torch::Tensor& control) const;
   double dropout() const { return dropout_; }
 
   std::vector<FlowStep> steps;
@@ -189,7 +198,11 @@ class MoGlowImpl : public MotionModel {
   ModelContext context_;
   int cond_dim_ = 0;
   int label_dim_ = 0;
+  int lookahead_dim_ = 0;
   double dropout_ = 0.0;
+  // One generated frame: the stream's history, the frame's control [B, C] and its look-ahead
+  // features [B, 3 K] (undefined without look-ahead).
+  torch::Tensor next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead);
   // label_features of a request's or batch's labels, [B, label_dim()] (undefined without labels).
   torch::Tensor labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
                           const torch::TensorOptions& options) const;
