@@ -484,6 +484,9 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--initial-frames", a->options.initial_frames,
                     "joint errors: real frames observed before the continuation (default 4, the paper's)");
     cmd->add_flag("--no-joint-errors", a->no_joint_errors, "skip the joint-position errors");
+    cmd->add_flag("--paths", a->options.synthetic_paths,
+                  "also walk N samples along drawn paths (curve, zigzag, stop-and-go, straight at 0.8/1.3/1.8 m/s) and "
+                  "score them against the real clips (rows paths.*)");
     cmd->add_flag("--foot-lock", a->options.foot_lock,
                   "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
     cmd->add_option("--foot-joints", a->foot_joints,

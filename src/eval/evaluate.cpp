@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/foot_lock.h"
+#include "eval/path_protocol.h"
 #include "data/prepare.h"
 #include "nn/classifier/classify.h"
 #include "nn/model.h"
@@ -227,6 +228,15 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
     for (size_t r = 0; r < real_rows.size(); ++r)
       result.rows.push_back({"foot_locked." + real_rows[r].key, real_rows[r].label + " (foot-locked)",
                              mean_finite(locked_values[r]), real_rows[r].value});
+  }
+
+  if (o.synthetic_paths) {
+    report("paths", 0, 1);
+    const auto along_paths = sample_synthetic_paths(run, n, o.seed + 3000017, o.temperature, warmup_frames);
+    const auto rows = set_metrics(along_paths, o.metrics);
+    for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
+      result.rows.push_back({"paths." + rows[r].key, rows[r].label + " (drawn paths)", rows[r].value, real_rows[r].value});
+    report("paths", 1, 1);
   }
 
   // ---- Diversity across the N samples of one control.

@@ -43,6 +43,9 @@ struct EvalOptions {
   // Also score the samples after the foot-lock post-process (core/foot_lock.h): rows
   // "foot_locked.<key>" beside the raw ones, which stay what the model makes.
   bool foot_lock = false;
+  // Also sample every synthetic path of eval/path_protocol.h (num_samples each) and score them
+  // against the real clips: rows "paths.<key>".
+  bool synthetic_paths = false;
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
   std::string checkpoint = "checkpoint.pt";  // file of the run to evaluate (e.g. "best.pt"), run_dir overload
 };
@@ -89,6 +92,7 @@ struct EvalResult {
 //   the set of every clip's k-th sample (same size and controls as the real set, so counts such
 //   as footsteps compare directly);
 // - with foot_lock, the same set metrics of the foot-locked samples, keys "foot_locked.<key>";
+// - with synthetic_paths, the set metrics of all samples along the drawn paths, "paths.<key>";
 // - "diversity.apd_m" APD across the N samples of one control, and
 //   "diversity.mean_pose_distance_m" DFN's distance to the per-frame mean pose across them, each
 //   averaged over clips (real: n/a, one motion per control);

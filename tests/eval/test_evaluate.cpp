@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "data/prepare.h"
 #include "eval/evaluate.h"
+#include "eval/path_protocol.h"
 #include "eval/report.h"
 #include "eval/set_metrics.h"
 #include "nn/run.h"
@@ -180,6 +181,27 @@ TEST_F(EvaluateTest, RecurrentVaeIsEvaluatedTheSameWay) {
   // The same held-out clips in either form (same files, same split seed).
   EXPECT_EQ(r.clips, (std::vector<std::string>{result_->clips[0], result_->clips[2]}));  // every other of 4
   EXPECT_TRUE(std::isfinite(r.row("classifier.is").real));
+}
+
+// The drawn-paths protocol and the foot-locked rows come in addition to the raw rows, which they
+// leave unchanged.
+TEST_F(EvaluateTest, DrawnPathsAndFootLockedRows) {
+  eval::EvalOptions e;
+  e.num_samples = 1;
+  e.max_clips = 2;
+  e.prediction = false;
+  e.joint_errors = false;
+  e.threads = 1;
+  const auto plain = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  e.synthetic_paths = true;
+  e.foot_lock = true;
+  const auto r = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  EXPECT_EQ(r.row("foot_skating_ratio").model, plain.row("foot_skating_ratio").model);
+  EXPECT_EQ(r.row("paths.motions").model, static_cast<double>(eval::synthetic_paths().size()));
+  EXPECT_EQ(r.row("paths.foot_skating_ratio").real, plain.row("foot_skating_ratio").real);
+  EXPECT_TRUE(std::isfinite(r.row("paths.footsteps.v_tol95_cmps").model));
+  EXPECT_TRUE(std::isfinite(r.row("foot_locked.foot_skating_ratio").model));
+  EXPECT_THAT(r.row("foot_locked.foot_skating_ratio").label, HasSubstr("(foot-locked)"));
 }
 
 TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {

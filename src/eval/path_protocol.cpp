@@ -1,0 +1,40 @@
+#include "eval/path_protocol.h"
+
+#include <algorithm>
+
+#include "data/control.h"
+#include "nn/sampling.h"
+
+namespace mosyn::eval {
+
+const std::vector<SyntheticPath>& synthetic_paths() {
+  static const std::vector<SyntheticPath> kPaths = {
+      {"curve", "0,0 0,3 2,5 5,5 7,3", 1.3},     {"zigzag", "0,0 2,2 0,4 2,6 0,8", 1.2},
+      {"stop-and-go", "0,0 0,3,2 3,5,2 3,8", 1.3}, {"straight-0.8", "0,0 0,8", 0.8},
+      {"straight-1.3", "0,0 0,10", 1.3},          {"straight-1.8", "0,0 0,12", 1.8},
+  };
+  return kPaths;
+}
+
+std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, int n, std::uint64_t seed,
+                                                    double temperature, int warmup_frames) {
+  std::vector<MotionPositions> out;
+  const auto& labels = run.dataset.content_labels;
+  const auto walk = std::find(labels.begin(), labels.end(), "walk");
+  nn::SampleExtras extras;
+  extras.warmup_frames = warmup_frames;
+  if (run.takes_labels && walk != labels.end()) extras.content = static_cast<int>(walk - labels.begin());
+  const auto& paths = synthetic_paths();
+  for (size_t i = 0; i < paths.size(); ++i) {
+    data::PathOptions po;
+    po.speed_mps = paths[i].speed_mps;
+    po.fps = run.dataset.fps;
+    const std::vector<float> control = data::smooth_control(
+        data::control_from_path(data::parse_path(paths[i].path), po), po.fps, run.dataset.layout.root_smoothing_s);
+    for (const auto& pose : nn::sample_motions(run, control, n, seed + i, temperature, extras))
+      out.push_back(motion_positions(nn::decode_motion(run, pose, control), 0.0, paths[i].name));
+  }
+  return out;
+}
+
+}  // namespace mosyn::eval
