@@ -9,6 +9,10 @@
 #include <fstream>
 #include <random>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include "core/error.h"
 #include "nn/checkpoint.h"
 #include "nn/generator.h"
@@ -228,6 +232,37 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   walker.reset(1);
   EXPECT_EQ(walker.frames(), 0);
   EXPECT_NEAR(walker.root(0).position.norm(), 0.0, 1e-12);
+  fs::remove_all(dir);
+}
+
+// One writer per run directory: while another process holds RUN/.lock, train refuses (and
+// touches nothing); the log grows as training goes, not only at checkpoints.
+TEST(Training, RunLockAndALogThatKeepsUp) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("lock");
+  fs::create_directories(dir);
+  const int fd = ::open((dir / ".lock").c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  auto o = tiny_options(dir);
+  try {
+    train(o, ds);
+    ADD_FAILURE() << "a second writer was let in";
+  } catch (const mosyn::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("another mosyn process"), std::string::npos) << e.what();
+  }
+  ::close(fd);  // released: the run goes ahead in the same directory
+  o.checkpoint_every = 100;  // no checkpoint before the last step
+  int lines_seen = 0;
+  TrainCallbacks cb;
+  cb.on_progress = [&](const TrainProgress& p) {
+    if (p.step != 8) return;
+    std::ifstream in(dir / "log.jsonl");
+    std::string line;
+    while (std::getline(in, line)) ++lines_seen;
+  };
+  train(o, ds, cb);
+  EXPECT_GE(lines_seen, 4);  // steps 2, 4, 6, 8 logged before any checkpoint
   fs::remove_all(dir);
 }
 

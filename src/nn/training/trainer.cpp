@@ -5,6 +5,11 @@
 #include <torch/optim/adam.h>
 #include <torch/utils.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+#include <cerrno>
+#include <cstring>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -160,6 +165,47 @@ void write_log(const std::string& path, const std::vector<std::string>& lines) {
   io::write_file_atomically(path, text);
 }
 
+// log.jsonl grows a line at a time as training logs, so progress is visible at once; a line torn
+// by a crash is dropped when the run resumes (read_log_until), which also drops lines past the
+// checkpoint it resumes from.
+class LogAppender {
+ public:
+  explicit LogAppender(std::string path) : path_(std::move(path)) {}
+  void append(const std::string& line) {
+    std::ofstream out(path_, std::ios::app | std::ios::binary);
+    out << line << '\n';
+    out.flush();
+    if (!out) throw Error(path_ + ": cannot append to the training log");
+  }
+
+ private:
+  std::string path_;
+};
+
+// One writer per run directory: an exclusive advisory lock on RUN/.lock held while training. The
+// kernel releases it when the process exits or dies, so a killed run never leaves it stuck.
+class RunLock {
+ public:
+  explicit RunLock(const fs::path& dir) {
+    const std::string path = (dir / ".lock").string();
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path + ": cannot open the run lock: " + std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd_);
+      throw Error(dir.string() + ": another mosyn process is training into this run directory (its lock " + path +
+                  " is held); wait for it to finish or stop it");
+    }
+  }
+  ~RunLock() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  RunLock(const RunLock&) = delete;
+  RunLock& operator=(const RunLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 std::vector<std::string> read_log_until(const std::string& path, int step) {
   std::vector<std::string> out;
   std::ifstream in(path);
@@ -219,15 +265,18 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   const std::string config_path = (dir / "config.json").string(), stats_path = (dir / "stats.json").string();
   const std::string ckpt_path = (dir / "checkpoint.pt").string(), best_path = (dir / "best.pt").string();
   const std::string log_path = (dir / "log.jsonl").string();
-  const bool exists = fs::exists(dir) && !fs::is_empty(dir);
+  bool exists = false;  // holds anything besides the lock file
+  if (fs::is_directory(dir))
+    for (const auto& entry : fs::directory_iterator(dir)) exists = exists || entry.path().filename() != ".lock";
+  if (!opts.resume && exists && !opts.overwrite)
+    throw Error(opts.out_dir + ": run directory already exists and is not empty (resume or overwrite it)");
+  fs::create_directories(dir);
+  const RunLock lock(dir);  // before touching anything: another writer may own the directory
   if (opts.resume) {
     if (!fs::exists(ckpt_path)) throw Error(ckpt_path + ": nothing to resume (no checkpoint)");
   } else if (exists) {
-    if (!opts.overwrite)
-      throw Error(opts.out_dir + ": run directory already exists and is not empty (resume or overwrite it)");
     for (const char* f : {"config.json", "stats.json", "checkpoint.pt", "best.pt", "log.jsonl"}) fs::remove(dir / f);
   }
-  fs::create_directories(dir);
 
   const ModelContext context = context_for(dataset.info());
   if (context.pose_dim <= 0) throw Error("train: the dataset has no pose dimensions");
@@ -278,6 +327,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   // NaN = not validated yet (a validation NLL may be any real number, negative included).
   double best_val = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> log_lines;
+  LogAppender log(log_path);
 
   if (opts.resume) {
     const auto state = load_checkpoint(ckpt_path, *model, &optimizer, device);
@@ -291,6 +341,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
       gen.set_state(state.torch_rng);
     }
     log_lines = read_log_until(log_path, step);
+    write_log(log_path, log_lines);  // drop what came after the checkpoint (and a torn last line)
     message("resumed " + opts.out_dir + " at step " + std::to_string(step));
   } else {
     nlohmann::json config = {{"format", "mosyn-run-1"},
@@ -408,6 +459,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
       for (const auto& kv : p.metrics) line[kv.first] = kv.second;
       if (p.has_val) line["val_loss"] = val;
       log_lines.push_back(line.dump());
+      log.append(log_lines.back());
       if (cb.on_progress) cb.on_progress(p);
     }
     if (step % opts.checkpoint_every == 0 || last) {
