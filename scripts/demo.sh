@@ -48,11 +48,10 @@ if [ -f "$model/checkpoint.pt" ]; then
   held_out="$bandai/data/dataset-2_walk-turn-left_normal_031.bvh"  # a validation file of both models
   if [ -f "$rvae/checkpoint.pt" ]; then
     echo "== mosyn sample: the shipped recurrent VAE along the root path of a held-out clip, from its prior"
-    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-prior --n 3 --seed 1 --control "$held_out" \
-      --content walk-turn-left --style normal
+    "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-prior --n 3 --seed 1 --control "$held_out"
     echo "== mosyn sample --continue: the recurrent VAE continues the clip's first 4 frames (its posterior)"
     "$mosyn" sample "$rvae" --out "$out/rvae" --prefix rvae-continued --n 2 --seed 2 --continue "$held_out" \
-      --observed-frames 4 --content walk-turn-left --style normal
+      --observed-frames 4
     views+=("$out"/rvae/*.bvh)
   fi
   echo "== pictures: a viewer page and a filmstrip"

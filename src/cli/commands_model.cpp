@@ -43,6 +43,21 @@ struct TrainArgs {
 // Config file keys: {"model": {...}, "train": {...}}; flags given on the command line win.
 void run_train(TrainArgs& a) {
   nn::TrainOptions o;
+  if (a.options.resume && a.config_file.empty()) {
+    // Resuming continues the run's own schedule (steps, lr, warm-up, batch...) unless flags say otherwise.
+    const std::string saved = (std::filesystem::path(a.options.out_dir) / "config.json").string();
+    if (std::filesystem::exists(saved)) {
+      const nlohmann::json run = io::read_json(saved);
+      if (run.contains("train")) {
+        try {
+          o = nn::TrainOptions::from_json(run["train"]);
+        } catch (const Error& e) {
+          throw Error(saved + ": " + e.what());
+        }
+        o.init_from.clear();  // the warm start happened when the run began
+      }
+    }
+  }
   if (!a.config_file.empty()) {
     const nlohmann::json file = io::read_json(a.config_file);
     for (const auto& [key, value] : file.items())

@@ -48,6 +48,18 @@ TEST_F(CliRvaeTest, ResumesAndSamplesAPathOfAnyLength) {
   const auto resumed = run_mosyn("train rvae --data " + *root_ + "/dataset --out " + *root_ + "/run --resume --steps 6 "
                                  "--threads 1");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  // The resumed steps keep the run's own schedule (tiny.json: no warm-up, batch 4), not the flags'
+  // defaults (a 1000-step Noam warm-up): the learning rate stays the peak.
+  std::ifstream log(*root_ + "/run/log.jsonl");
+  std::string line;
+  int resumed_lines = 0;
+  while (std::getline(log, line)) {
+    const nlohmann::json j = nlohmann::json::parse(line);
+    if (j["step"].get<int>() <= 4) continue;
+    ++resumed_lines;
+    EXPECT_DOUBLE_EQ(j["lr"].get<double>(), 1e-3) << line;
+  }
+  EXPECT_GT(resumed_lines, 0);
   // 7.3 s at 30 fps: 220 frames, neither the training window nor a multiple of the pooling.
   const auto r = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/path --n 2 --seed 3 --seconds 7.3 "
                            "--path '0,0 0,3 2,5' --threads 1");
