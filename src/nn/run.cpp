@@ -89,6 +89,25 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
   }
 }
 
+// Loads checkpoint bytes into *archive and checks its format and family (mosyn::Error otherwise).
+void open_checkpoint(const std::string& bytes, const torch::Device& device, const std::string& family,
+                     torch::serialize::InputArchive* archive) {
+  archive->load_from(bytes.data(), bytes.size(), device);
+  c10::IValue v;
+  if (!archive->try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)
+    throw Error("not a mosyn checkpoint");
+  if (!archive->try_read("family", v) || v.toStringRef() != family)
+    throw Error("checkpoint is of family '" + (v.isString() ? v.toStringRef() : std::string("?")) + "', expected '" +
+                family + "'");
+}
+
+// The first line of a LibTorch exception, for a one-line error.
+std::string first_line(const std::exception& e) {
+  std::string msg = e.what();
+  if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
+  return msg;
+}
+
 }  // namespace
 
 InitReport init_from_checkpoint(const std::string& path, MotionModel& model, const torch::Device& device) {
@@ -96,13 +115,8 @@ InitReport init_from_checkpoint(const std::string& path, MotionModel& model, con
   InitReport report;
   try {
     torch::serialize::InputArchive archive;
-    archive.load_from(bytes.data(), bytes.size(), device);
+    open_checkpoint(bytes, device, model.family(), &archive);
     c10::IValue v;
-    if (!archive.try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)
-      throw Error("not a mosyn checkpoint");
-    if (!archive.try_read("family", v) || v.toStringRef() != model.family())
-      throw Error("checkpoint is of family '" + (v.isString() ? v.toStringRef() : std::string("?")) +
-                  "', expected '" + model.family() + "'");
     archive.read("step", v);
     report.step = static_cast<int>(v.toInt());
     torch::serialize::InputArchive model_archive;
@@ -111,9 +125,7 @@ InitReport init_from_checkpoint(const std::string& path, MotionModel& model, con
   } catch (const Error& e) {
     throw Error(path + ": cannot initialise from this checkpoint: " + e.what());
   } catch (const std::exception& e) {
-    std::string msg = e.what();
-    if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
-    throw Error(path + ": corrupt or truncated checkpoint (" + msg + ")");
+    throw Error(path + ": corrupt or truncated checkpoint (" + first_line(e) + ")");
   }
   return report;
 }
@@ -149,13 +161,8 @@ CheckpointState load_checkpoint(const std::string& path, MotionModel& model, tor
   CheckpointState state;
   try {
     torch::serialize::InputArchive archive;
-    archive.load_from(bytes.data(), bytes.size(), device);
+    open_checkpoint(bytes, device, model.family(), &archive);
     c10::IValue v;
-    if (!archive.try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)
-      throw Error("not a mosyn checkpoint");
-    if (!archive.try_read("family", v) || v.toStringRef() != model.family())
-      throw Error("checkpoint is of family '" + (v.isString() ? v.toStringRef() : std::string("?")) +
-                  "', expected '" + model.family() + "'");
     archive.read("step", v);
     state.step = static_cast<int>(v.toInt());
     archive.read("best_val_loss", v);
@@ -175,9 +182,7 @@ CheckpointState load_checkpoint(const std::string& path, MotionModel& model, tor
   } catch (const Error& e) {
     throw Error(path + ": corrupt or incompatible checkpoint: " + e.what());
   } catch (const std::exception& e) {
-    std::string msg = e.what();
-    if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
-    throw Error(path + ": corrupt or truncated checkpoint (" + msg + ")");
+    throw Error(path + ": corrupt or truncated checkpoint (" + first_line(e) + ")");
   }
   return state;
 }
