@@ -208,27 +208,22 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
 
   // ---- Set metrics: real clips, and the mean over the N replicate sets of samples.
   const std::vector<MetricValue> real_rows = set_metrics(real, o.metrics);
-  std::vector<std::vector<double>> model_values(real_rows.size());
-  for (int k = 0; k < n; ++k) {
-    std::vector<MotionPositions> set;
-    for (const auto& s : samples) set.push_back(s[k]);
-    const auto rows = set_metrics(set, o.metrics);
-    for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) model_values[r].push_back(rows[r].value);
-  }
-  for (size_t r = 0; r < real_rows.size(); ++r)
-    result.rows.push_back({real_rows[r].key, real_rows[r].label, mean_finite(model_values[r]), real_rows[r].value});
-  if (o.foot_lock) {
-    std::vector<std::vector<double>> locked_values(real_rows.size());
+  // Rows of [clips][N] samples: each set metric averaged over the N replicate sets.
+  auto add_replicate_rows = [&](const std::vector<std::vector<MotionPositions>>& per_clip, const std::string& key_prefix,
+                                const std::string& label_suffix) {
+    std::vector<std::vector<double>> values(real_rows.size());
     for (int k = 0; k < n; ++k) {
       std::vector<MotionPositions> set;
-      for (const auto& s : locked) set.push_back(s[k]);
+      for (const auto& s : per_clip) set.push_back(s[k]);
       const auto rows = set_metrics(set, o.metrics);
-      for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) locked_values[r].push_back(rows[r].value);
+      for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) values[r].push_back(rows[r].value);
     }
     for (size_t r = 0; r < real_rows.size(); ++r)
-      result.rows.push_back({"foot_locked." + real_rows[r].key, real_rows[r].label + " (foot-locked)",
-                             mean_finite(locked_values[r]), real_rows[r].value});
-  }
+      result.rows.push_back({key_prefix + real_rows[r].key, real_rows[r].label + label_suffix, mean_finite(values[r]),
+                             real_rows[r].value});
+  };
+  add_replicate_rows(samples, "", "");
+  if (o.foot_lock) add_replicate_rows(locked, "foot_locked.", " (foot-locked)");
 
   if (o.synthetic_paths) {
     report("paths", 0, 1);
