@@ -205,6 +205,7 @@ void run_sample(const SampleArgs& a) {
   std::vector<float> control;
   double start_heading = 0;
   nlohmann::json control_desc;
+  bool encoded_by_dataset = false;  // a dataset clip's or the continued file's own (already smoothed) control
   if (!a.control_file.empty()) {
     if (extension_of(a.control_file) == "csv") {
       control = data::control_from_csv(a.control_file);
@@ -218,10 +219,12 @@ void run_sample(const SampleArgs& a) {
     if (a.clip < 0 || a.clip >= static_cast<int>(clips.size()))
       throw UsageError("--clip must be in [0, " + std::to_string(clips.size()) + ") for split '" + a.split + "'");
     control = clips[a.clip].control;
+    encoded_by_dataset = true;
     control_desc = {{"kind", "dataset"}, {"dataset", a.data_dir}, {"split", a.split}, {"clip", a.clip},
                     {"source", clips[a.clip].source}};
   } else if (!a.continue_file.empty() && a.path.empty()) {
     control = own_rest_control;  // the rest of the observed file's own root motion
+    encoded_by_dataset = true;
     control_desc = {{"kind", "file"}, {"file", a.continue_file}, {"from_frame", observed}};
     if (control.size() < 6 && a.seconds <= 0)
       throw UsageError(a.continue_file + " has no frames after the " + std::to_string(observed) +
@@ -241,10 +244,8 @@ void run_sample(const SampleArgs& a) {
     control = data::control_from_path(path, po, &start_heading);
     control_desc = {{"kind", "path"}, {"path", text}, {"speed_mps", a.speed_mps}};
   }
-  // Paths and files shaped like the run's training controls (its dataset's root smoothing);
-  // dataset clips and the continued file's own motion were encoded with it already.
-  if (!a.path.empty() || !a.control_file.empty() || (a.data_dir.empty() && a.continue_file.empty()))
-    control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
+  // Paths and files shaped like the run's training controls (its dataset's root smoothing).
+  if (!encoded_by_dataset) control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
   // --seconds cuts or extends (standing still) controls from files and datasets too.
   if (a.seconds > 0) control.resize(3 * (static_cast<size_t>(a.seconds * fps) + 1), 0.0f);
   const int num_frames = static_cast<int>(control.size() / 3);

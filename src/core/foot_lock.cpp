@@ -84,6 +84,11 @@ AnkleTargets pin_contacts(const Skeleton& skeleton, const WorldPoses& world, int
   return out;
 }
 
+void check_options(const FootLockOptions& o) {
+  if (!(o.contact_height_m > 0) || !(o.contact_speed_mps > 0) || !(o.min_contact_s >= 0) || !(o.blend_s >= 0))
+    throw Error("foot lock: thresholds must be positive and durations non-negative");
+}
+
 // Shortest rotation taking direction a onto direction b (identity for degenerate input).
 Eigen::Quaterniond rotation_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   if (a.norm() < 1e-12 || b.norm() < 1e-12) return Eigen::Quaterniond::Identity();
@@ -142,8 +147,7 @@ Eigen::Vector3d two_bone_knee(const Eigen::Vector3d& hip, const Eigen::Vector3d&
 }
 
 Motion foot_lock(const Skeleton& skeleton, const Motion& motion, const FootLockOptions& o, FootLockReport* report) {
-  if (!(o.contact_height_m > 0) || !(o.contact_speed_mps > 0) || !(o.min_contact_s >= 0) || !(o.blend_s >= 0))
-    throw Error("foot lock: thresholds must be positive and durations non-negative");
+  check_options(o);
   motion.validate();
   if (motion.num_joints != skeleton.num_joints()) throw Error("foot lock: motion and skeleton joint counts differ");
   FootLockReport local_report;
@@ -172,8 +176,7 @@ Motion foot_lock(const Skeleton& skeleton, const Motion& motion, const FootLockO
 StreamingFootLock::StreamingFootLock(const Skeleton& skeleton, double fps, const FootLockOptions& options)
     : skeleton_(skeleton), options_(options), fps_(fps), legs_(find_legs(skeleton)) {
   if (!(fps > 0)) throw Error("foot lock: fps must be positive");
-  if (!(options.contact_height_m > 0) || !(options.contact_speed_mps > 0) || !(options.blend_s >= 0))
-    throw Error("foot lock: thresholds must be positive and durations non-negative");
+  check_options(options);
   states_.resize(legs_.size());
 }
 

@@ -326,7 +326,6 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   int step = 0;
   // NaN = not validated yet (a validation NLL may be any real number, negative included).
   double best_val = std::numeric_limits<double>::quiet_NaN();
-  std::vector<std::string> log_lines;
   LogAppender log(log_path);
 
   if (opts.resume) {
@@ -340,8 +339,8 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
       auto gen = at::detail::getDefaultCPUGenerator();  // a handle sharing the global state
       gen.set_state(state.torch_rng);
     }
-    log_lines = read_log_until(log_path, step);
-    write_log(log_path, log_lines);  // drop what came after the checkpoint (and a torn last line)
+    // Drop what was logged after the checkpoint (and a line torn by a crash).
+    write_log(log_path, read_log_until(log_path, step));
     message("resumed " + opts.out_dir + " at step " + std::to_string(step));
   } else {
     nlohmann::json config = {{"format", "mosyn-run-1"},
@@ -392,7 +391,6 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
   while (step < opts.steps) {
     if (cb.should_stop && cb.should_stop()) {
       save(ckpt_path);
-      write_log(log_path, log_lines);
       result.stopped_early = true;
       message("stopped at step " + std::to_string(step) + "; checkpoint saved");
       break;
@@ -406,7 +404,6 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
     auto terms = model->loss(batch);
     const double loss = terms.loss().item<double>();
     auto fail = [&](const std::string& what) {
-      write_log(log_path, log_lines);
       throw Error("training diverged: " + what + " at step " + std::to_string(next) +
                   (fs::exists(ckpt_path) ? "; the last good checkpoint (" + ckpt_path + ") is kept"
                                          : "; no checkpoint was written yet"));
@@ -458,13 +455,11 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
       nlohmann::json line = {{"step", step}, {"loss", loss}, {"lr", lr}, {"time_s", p.elapsed_s}};
       for (const auto& kv : p.metrics) line[kv.first] = kv.second;
       if (p.has_val) line["val_loss"] = val;
-      log_lines.push_back(line.dump());
-      log.append(log_lines.back());
+      log.append(line.dump());
       if (cb.on_progress) cb.on_progress(p);
     }
     if (step % opts.checkpoint_every == 0 || last) {
       save(ckpt_path);
-      write_log(log_path, log_lines);
     }
   }
   result.step = step;
