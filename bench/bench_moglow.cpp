@@ -74,7 +74,7 @@ void BM_SampleFrame(benchmark::State& state) {
   req.seed = 1;
   auto stream = model->begin_stream(req);
   auto control = torch::randn({batch, 3});
-  for (auto _ : state) benchmark::DoNotOptimize(model->step_stream(*stream, control));
+  for (auto _ : state) benchmark::DoNotOptimize(model->step_stream(*stream, control).pose);
   state.SetLabel(std::string(name_of(which)) + " batch " + std::to_string(batch));
 }
 

@@ -54,7 +54,7 @@ void BM_RvaeSample10s(benchmark::State& state) {
   SampleRequest req;
   req.control = torch::randn({batch, 300, 3});
   req.seed = 1;
-  for (auto _ : state) benchmark::DoNotOptimize(model->sample(req));
+  for (auto _ : state) benchmark::DoNotOptimize(model->sample(req).pose);
   state.SetLabel(std::string(name_of(which)) + " batch " + std::to_string(batch) + ", 300 frames");
 }
 

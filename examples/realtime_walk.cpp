@@ -19,7 +19,7 @@ int main(int argc, char** argv) try {
   options.warmup_frames = 30;  // settle into a natural standing pose before the first frame
   mosyn::nn::LoadedRun run = mosyn::nn::load_run(model_dir, {"checkpoint.pt", "cpu", options.threads});
   std::vector<std::string> styles;  // one per character, from the model's vocabulary
-  if (run.takes_labels) {
+  if (run.traits.labels) {
     const auto& vocabulary = run.dataset.style_labels;
     for (const char* name : {"normal", "elderly", "youthful", "exhausted"}) {
       const auto it = std::find(vocabulary.begin(), vocabulary.end(), name);

@@ -257,21 +257,23 @@ void run_sample(const SampleArgs& a) {
   extras.warmup_frames = a.warmup_s >= 0 ? static_cast<int>(std::lround(a.warmup_s * fps)) : nn::kFamilyWarmup;
   extras.prefix_pose = observed_pose;
   extras.prefix_control = observed_control;
-  auto poses = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
+  auto motions = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
   if (observed > 0) {  // written out as observed + continuation
-    for (auto& p : poses) p.insert(p.begin(), observed_pose.begin(), observed_pose.end());
-    control.insert(control.begin(), observed_control.begin(), observed_control.end());
+    for (auto& m : motions) {
+      m.pose.insert(m.pose.begin(), observed_pose.begin(), observed_pose.end());
+      m.control.insert(m.control.begin(), observed_control.begin(), observed_control.end());
+    }
     start_heading = observed_heading;
   }
-  const int total_frames = static_cast<int>(control.size() / 3);
+  const int total_frames = static_cast<int>(motions.front().control.size() / 3);
 
   std::filesystem::create_directories(a.out_dir);
   for (int i = 0; i < a.n; ++i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
-    Clip clip = data::decode_features(run.dataset, poses[i].data(), control.data(), total_frames, start_position,
-                                      start_heading);
+    Clip clip = data::decode_features(run.dataset, motions[i].pose.data(), motions[i].control.data(), total_frames,
+                                      start_position, start_heading);
     FootLockReport lock;
     if (a.foot_lock) clip.motion = mosyn::foot_lock(clip.skeleton, clip.motion, {}, &lock);
     io::write_bvh(base + ".bvh", io::from_clip(clip));
@@ -319,8 +321,8 @@ void run_export(const std::string& run_dir, const std::string& out_dir, const st
   }
   nn::CheckpointState state;
   state.step = run.step;
-  if (half) nn::narrow_to_half(*run.model);
-  nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.model, nullptr, state);
+  if (half) nn::narrow_to_half(*run.trainable);
+  nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.trainable, nullptr, state);
   std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only%s)\n", run.step,
                run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "");
 }

@@ -21,18 +21,18 @@ struct CheckpointState {
 };
 
 // Writes model (parameters + buffers), optimizer (may be null) and state to path atomically.
-void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
+void save_checkpoint(const std::string& path, TrainableModel& model, const torch::optim::Optimizer* optimizer,
                      const CheckpointState& state);
 
 // Converts the model's float32 parameters and buffers to float16 in place, to save a checkpoint
 // at half the size (mosyn export --half). load_checkpoint widens them back to float32, so the
 // loaded model computes in float32 with weights rounded to float16 (about 3 significant
 // digits). The model is for saving only afterwards.
-void narrow_to_half(MotionModel& model);
+void narrow_to_half(TrainableModel& model);
 
 // Loads into an already-built model (and optimizer, may be null) on device. Throws mosyn::Error
 // naming path when the file is missing, truncated, corrupt or does not fit the model.
-CheckpointState load_checkpoint(const std::string& path, MotionModel& model, torch::optim::Optimizer* optimizer,
+CheckpointState load_checkpoint(const std::string& path, TrainableModel& model, torch::optim::Optimizer* optimizer,
                                 const torch::Device& device);
 
 // What init_from_checkpoint did with the model's tensors.
@@ -51,6 +51,6 @@ struct InitReport {
 // model of the same family, tolerating architecture changes as InitReport describes. Optimiser
 // state and step are not taken. Throws mosyn::Error naming path when the file is missing,
 // corrupt or of another family.
-InitReport init_from_checkpoint(const std::string& path, MotionModel& model, const torch::Device& device);
+InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device);
 
 }  // namespace mosyn::nn

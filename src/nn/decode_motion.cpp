@@ -20,9 +20,12 @@ Clip decode_motion(const LoadedRun& run, const std::vector<float>& pose, const s
   return clip;
 }
 
-void write_motion_bvh(const std::string& path, const LoadedRun& run, const std::vector<float>& pose,
-                      const std::vector<float>& control) {
-  io::write_bvh(path, io::from_clip(decode_motion(run, pose, control)));
+Clip decode_motion(const LoadedRun& run, const SampledMotion& motion) {
+  return decode_motion(run, motion.pose, motion.control);
+}
+
+void write_motion_bvh(const std::string& path, const LoadedRun& run, const SampledMotion& motion) {
+  io::write_bvh(path, io::from_clip(decode_motion(run, motion)));
 }
 
 }  // namespace mosyn::nn

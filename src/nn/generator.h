@@ -26,7 +26,7 @@ struct GeneratorOptions {
   std::vector<float> prefix_control;  // optional raw [P, C]
   // Per-character labels (index into the run's content / style vocabularies, -1 = none): empty =
   // none for everyone, one entry = the same for everyone, else one entry per character. Only for
-  // models that take labels (MotionModel::takes_labels); an unknown index is an error.
+  // models that take labels (ModelTraits::labels); an unknown index is an error.
   std::vector<int> content, style;
   // Causal shaping of live controls (a game pad's sudden starts, stops and turns) towards the
   // Gaussian-smoothed trajectories the model was trained on: each control channel passes through a
@@ -62,8 +62,9 @@ class Generator {
 
   // Advances every character by one frame. control: raw [B, C] row-major (dx, dz metres,
   // dtheta radians of the new frame relative to the previous one), shaped as
-  // GeneratorOptions::control_smoothing_s says before the model and the root see it. Returns raw
-  // pose [B, D].
+  // GeneratorOptions::control_smoothing_s says before the model and the root see it; empty for a
+  // family that generates its root motion (ModelTraits::control kGenerates), whose own root motion
+  // moves the root then. Returns raw pose [B, D].
   std::vector<float> step(const std::vector<float>& control);
 
   // Restarts the stream (states, history, root poses) with a new seed.
@@ -73,7 +74,7 @@ class Generator {
   int pose_dim() const;
   int control_dim() const;
   int frames() const;  // frames generated since the start / reset
-  // The control the model saw at the last step, after shaping: raw [B, C].
+  // The control the model saw at the last step, after shaping (or the root motion it generated): raw [B, C].
   const std::vector<float>& last_control() const;
   // Root pose of character b after the frames so far, integrated from the controls.
   const RootPose& root(int b) const;

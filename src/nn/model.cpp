@@ -4,21 +4,28 @@
 #include <torch/utils.h>
 
 #include <algorithm>
+#include <map>
 #include <mutex>
 #include <thread>
 
 #include "core/error.h"
-#include "nn/classifier/classifier.h"
-#include "nn/moglow/moglow.h"
-#include "nn/rvae/rvae.h"
 
 namespace mosyn::nn {
+
+const char* to_string(InputUse use) {
+  switch (use) {
+    case InputUse::kIgnores: return "ignores";
+    case InputUse::kTakes: return "takes";
+    case InputUse::kGenerates: return "generates";
+  }
+  return "?";
+}
 
 std::unique_ptr<StreamState> MotionModel::begin_stream(const SampleRequest&) {
   throw Error("model family '" + family() + "' cannot generate frame by frame (not causal)");
 }
 
-torch::Tensor MotionModel::step_stream(StreamState&, const torch::Tensor&) {
+StreamFrame MotionModel::step_stream(StreamState&, const torch::Tensor&) {
   throw Error("model family '" + family() + "' cannot generate frame by frame (not causal)");
 }
 
@@ -29,41 +36,32 @@ std::mutex& registry_mutex() {
   return m;
 }
 
-// Built-in families are listed here explicitly: self-registering statics in a static library
-// would be dropped by the linker.
-std::map<std::string, ModelFactory>& registry() {
-  static std::map<std::string, ModelFactory> r = {
-      {"classifier", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
-         return make_classifier(c, ctx);
-       }},
-      {"moglow", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
-         return make_moglow(c, ctx);
-       }},
-      {"rvae", [](const nlohmann::json& c, const ModelContext& ctx) -> std::shared_ptr<MotionModel> {
-         return make_rvae(c, ctx);
-       }},
-  };
+// Filled by the families' static registrations before main (construct on first use, so the order
+// of static initialisation across object files does not matter).
+std::map<std::string, FamilyInfo>& registry() {
+  static std::map<std::string, FamilyInfo> r;
   return r;
+}
+
+std::string known_families() {
+  std::string known;
+  for (const auto& kv : registry()) known += (known.empty() ? "" : ", ") + kv.first;
+  return known.empty() ? "none: the program does not link the mosyn_families target" : known;
 }
 
 }  // namespace
 
-std::shared_ptr<MotionModel> create_model(const std::string& family, const nlohmann::json& config,
-                                          const ModelContext& context) {
-  ModelFactory factory;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex());
-    auto it = registry().find(family);
-    if (it == registry().end()) {
-      std::string known;
-      for (const auto& kv : registry()) known += (known.empty() ? "" : ", ") + kv.first;
-      throw Error("unknown model family '" + family + "' (known: " + known + ")");
-    }
-    factory = it->second;
-  }
-  if (context.pose_dim <= 0) throw Error("create_model: pose_dim must be positive");
-  if (context.control_dim <= 0) throw Error("create_model: control_dim must be positive");
-  return factory(config.is_null() ? nlohmann::json::object() : config, context);
+void register_family(FamilyInfo info) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  const std::string name = info.name;
+  registry()[name] = std::move(info);
+}
+
+FamilyInfo family_info(const std::string& name) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  auto it = registry().find(name);
+  if (it == registry().end()) throw Error("unknown model family '" + name + "' (known: " + known_families() + ")");
+  return it->second;
 }
 
 std::vector<std::string> model_families() {
@@ -73,9 +71,27 @@ std::vector<std::string> model_families() {
   return names;
 }
 
-void register_model_family(const std::string& family, ModelFactory factory) {
+std::vector<std::string> families_of_kind(FamilyKind kind) {
   std::lock_guard<std::mutex> lock(registry_mutex());
-  registry()[family] = std::move(factory);
+  std::vector<std::string> names;
+  for (const auto& kv : registry())
+    if (kv.second.kind == kind) names.push_back(kv.first);
+  return names;
+}
+
+std::shared_ptr<TrainableModel> create_trainable(const std::string& family, const nlohmann::json& config,
+                                                 const ModelContext& context) {
+  const FamilyInfo info = family_info(family);
+  if (context.pose_dim <= 0) throw Error("create_model: pose_dim must be positive");
+  if (context.control_dim <= 0) throw Error("create_model: control_dim must be positive");
+  return info.factory(config.is_null() ? nlohmann::json::object() : config, context);
+}
+
+std::shared_ptr<MotionModel> create_model(const std::string& family, const nlohmann::json& config,
+                                          const ModelContext& context) {
+  if (family_info(family).kind != FamilyKind::kMotion)
+    throw Error("model family '" + family + "' does not generate motion");
+  return std::dynamic_pointer_cast<MotionModel>(create_trainable(family, config, context));
 }
 
 int set_num_threads(int threads) {

@@ -1,6 +1,6 @@
 // The family-agnostic interface every probabilistic motion model in mosyn implements
-// (MoGlow, recurrent VAE, hierarchical VRNN, Dynamic Future Net, MOJO), and the registry that
-// builds one from a family name and a JSON config.
+// (MoGlow, recurrent VAE, hierarchical VRNN, Dynamic Future Net, MOJO). Families register
+// themselves (nn/registry.h); see src/nn/README.md for how to add one.
 //
 // Conventions shared by all families:
 // - Tensors are batch-first: pose [B, T, D], control [B, T, C] (C = 3: dx, dz metres and
@@ -24,24 +24,11 @@
 #include <vector>
 
 #include "nn/context.h"
+#include "nn/registry.h"
+#include "nn/trainable.h"
+#include "nn/traits.h"
 
 namespace mosyn::nn {
-
-// One training or validation mini-batch, standardised.
-struct Batch {
-  torch::Tensor pose;     // [B, T, D] float, standardised
-  torch::Tensor control;  // [B, T, C] float, standardised
-  torch::Tensor content;  // [B] int64, -1 = none (may be undefined: all none)
-  torch::Tensor style;    // [B] int64, -1 = none (may be undefined: all none)
-};
-
-// Named scalar tensors returned by MotionModel::loss. terms["loss"] is the total that the
-// optimiser minimises (0-dim, differentiable); the others are detached metrics for logging,
-// e.g. "nll_frame" (nats per predicted frame) and "nll_dim" (nats per frame and dimension).
-struct LossTerms {
-  std::map<std::string, torch::Tensor> terms;
-  const torch::Tensor& loss() const { return terms.at("loss"); }
-};
 
 // A request for random motion. All tensors standardised; poses and controls batch-first.
 struct SampleRequest {
@@ -56,74 +43,57 @@ struct SampleRequest {
   int batch = 0;                 // for begin_stream only: batch size B when no tensor gives it
 };
 
+// What sampling returns: the poses and the root motion they move along, standardised.
+struct SampleOutput {
+  torch::Tensor pose;     // [B, T, D]
+  torch::Tensor control;  // [B, T, C]: the request's control for families that take it, the
+                          // generated root motion for families that generate it (ModelTraits)
+};
+
+// One frame of a stream, standardised.
+struct StreamFrame {
+  torch::Tensor pose;     // [B, D]
+  torch::Tensor control;  // [B, C]: the given control, or the generated root motion
+};
+
 // Opaque per-family state of a streaming (frame-by-frame) generation.
 class StreamState {
  public:
   virtual ~StreamState() = default;
 };
 
-// Abstract motion model. Implementations are torch::nn::Modules whose parameters and buffers
-// are everything a checkpoint must hold besides config().
-class MotionModel : public torch::nn::Module {
+// Abstract motion model: a trainable model (nn/trainable.h) that generates motion. Its traits()
+// say which inputs it takes and which it generates; callers follow them, never the family name.
+class MotionModel : public TrainableModel {
  public:
-  explicit MotionModel(std::string name) : torch::nn::Module(std::move(name)) {}
+  explicit MotionModel(std::string name) : TrainableModel(std::move(name)) {}
   ~MotionModel() override = default;
 
-  // Family name as accepted by create_model, e.g. "moglow".
-  virtual std::string family() const = 0;
+  // Which inputs the family takes, ignores or generates (nn/traits.h). May depend on the config
+  // (e.g. labels only when trained with labels).
+  virtual ModelTraits traits() const = 0;
 
-  // The fully resolved model config (defaults filled in); create_model(family(), config(), ctx)
-  // rebuilds the same architecture.
-  virtual nlohmann::json config() const = 0;
+  // Random motion: poses (and root motion) of request.control's B x T frames. Families that take
+  // control return request.control as SampleOutput::control. Deterministic given the request (seed
+  // included); no gradient is recorded.
+  virtual SampleOutput sample(const SampleRequest& request) = 0;
 
-  // Called by the trainer before every training step (1-based step of total_steps), so a family
-  // can schedule loss weights (e.g. KL annealing) without trainer special cases. Default: no-op.
-  virtual void set_progress(int step, int total_steps) {}
-
-  // Training objective on a batch. Uses training-only regularisers (e.g. data dropout) only when
-  // is_training(). Random choices draw from the default CPU generator (torch::manual_seed).
-  virtual LossTerms loss(const Batch& batch) = 0;
-
-  // Random motion for request.control: returns [B, T, D] standardised poses, one per control
-  // frame. Deterministic given the request (seed included); no gradient is recorded.
-  virtual torch::Tensor sample(const SampleRequest& request) = 0;
-
-  // Seconds of standing (zero control) that offline sampling generates first and drops when the
-  // caller leaves the choice to the family (nn::kFamilyWarmup; mosyn sample / eval without
-  // --warmup). Families that start from a neutral initial state need it to settle into a natural
-  // pose (MoGlow: the mean pose as history, 1 s); 0 for those whose first frames are already
-  // natural (the recurrent VAE, whose first latent comes from the prior or the posterior).
-  virtual double default_warmup_s() const { return 0.0; }
-
-  // True when content and style labels of SampleRequest / Batch condition the motion; a family
-  // that ignores labels refuses requests that carry them (nn/sampling.h).
-  virtual bool takes_labels() const { return false; }
-
-  // Causal models support frame-by-frame generation with no algorithmic latency.
-  virtual bool supports_streaming() const { return false; }
-  // Starts a stream from the request's prefix, labels, temperature and seed (request.control is
-  // ignored; the batch size comes from prefix_pose, content, style or request.batch).
+  // Streaming, for families whose traits().streaming is true. Starts a stream from the request's
+  // prefix, labels, temperature and seed (request.control is ignored; the batch size comes from
+  // prefix_pose, content, style or request.batch).
   virtual std::unique_ptr<StreamState> begin_stream(const SampleRequest& request);
   // Advances a stream by one frame: control [B, C] standardised of the new frame t (the delta
-  // t-1 -> t) gives pose [B, D] standardised of frame t.
-  virtual torch::Tensor step_stream(StreamState& state, const torch::Tensor& control);
+  // t-1 -> t; undefined for families that generate their root motion) gives frame t.
+  virtual StreamFrame step_stream(StreamState& state, const torch::Tensor& control);
 };
 
-using ModelFactory =
-    std::function<std::shared_ptr<MotionModel>(const nlohmann::json& config, const ModelContext& context)>;
-
-// Builds a model of a family ("moglow", ...) from a (possibly partial) config; missing keys take
-// the family's defaults; a "preset" key selects a named set of defaults first. Parameters are
-// initialised from the default torch generator (call torch::manual_seed first for
-// reproducibility). Throws mosyn::Error for an unknown family, unknown key or invalid value.
+// Builds a motion model of a registered family (nn/registry.h) from a (possibly partial) config;
+// missing keys take the family's defaults; a "preset" key selects a named set of defaults first.
+// Parameters are initialised from the default torch generator (call torch::manual_seed first for
+// reproducibility). Throws mosyn::Error for an unknown family, a family that does not generate
+// motion (a classifier), an unknown key or an invalid value.
 std::shared_ptr<MotionModel> create_model(const std::string& family, const nlohmann::json& config,
                                           const ModelContext& context);
-
-// Families create_model knows, sorted.
-std::vector<std::string> model_families();
-
-// Adds a family to the registry (replacing one of the same name).
-void register_model_family(const std::string& family, ModelFactory factory);
 
 // Sets the number of intra-op CPU threads LibTorch uses; threads <= 0 means all cores.
 // Returns the number set.

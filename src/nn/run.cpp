@@ -110,7 +110,7 @@ std::string first_line(const std::exception& e) {
 
 }  // namespace
 
-InitReport init_from_checkpoint(const std::string& path, MotionModel& model, const torch::Device& device) {
+InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device) {
   const std::string bytes = io::read_file(path);
   InitReport report;
   try {
@@ -130,7 +130,7 @@ InitReport init_from_checkpoint(const std::string& path, MotionModel& model, con
   return report;
 }
 
-void save_checkpoint(const std::string& path, MotionModel& model, const torch::optim::Optimizer* optimizer,
+void save_checkpoint(const std::string& path, TrainableModel& model, const torch::optim::Optimizer* optimizer,
                      const CheckpointState& state) {
   torch::serialize::OutputArchive archive;
   archive.write("format", c10::IValue(std::string(kCheckpointFormat)));
@@ -155,7 +155,7 @@ void save_checkpoint(const std::string& path, MotionModel& model, const torch::o
   io::write_file_atomically(path, bytes);
 }
 
-CheckpointState load_checkpoint(const std::string& path, MotionModel& model, torch::optim::Optimizer* optimizer,
+CheckpointState load_checkpoint(const std::string& path, TrainableModel& model, torch::optim::Optimizer* optimizer,
                                 const torch::Device& device) {
   const std::string bytes = io::read_file(path);
   CheckpointState state;
@@ -187,7 +187,7 @@ CheckpointState load_checkpoint(const std::string& path, MotionModel& model, tor
   return state;
 }
 
-void narrow_to_half(MotionModel& model) {
+void narrow_to_half(TrainableModel& model) {
   torch::NoGradGuard no_grad;
   for (auto& t : model.parameters())
     if (t.scalar_type() == torch::kFloat32) t.set_data(t.to(torch::kHalf));
@@ -219,13 +219,15 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
       static_cast<int>(run.stats.control_mean.size()) != run.context.control_dim)
     throw Error(stats_path + ": statistics do not match the model's dimensions");
   const torch::Device device = parse_device(options.device);
-  run.model = create_model(run.family, run.config["model"], run.context);
-  run.model->to(device);
+  run.kind = family_info(run.family).kind;
+  run.trainable = create_trainable(run.family, run.config["model"], run.context);
+  run.trainable->to(device);
   const std::string ckpt = (fs::path(run_dir) / options.checkpoint).string();
   if (!fs::exists(ckpt)) throw Error(ckpt + ": checkpoint not found");
-  run.step = load_checkpoint(ckpt, *run.model, nullptr, device).step;
-  run.takes_labels = run.model->takes_labels();
-  run.model->eval();
+  run.step = load_checkpoint(ckpt, *run.trainable, nullptr, device).step;
+  run.model = std::dynamic_pointer_cast<MotionModel>(run.trainable);
+  if (run.model) run.traits = run.model->traits();
+  run.trainable->eval();
   return run;
 }
 

@@ -8,10 +8,13 @@
 
 #include "data/dataset.h"
 #include "nn/context.h"
+#include "nn/registry.h"
+#include "nn/traits.h"
 
 namespace mosyn::nn {
 
 class MotionModel;
+class TrainableModel;
 
 struct LoadOptions {
   std::string checkpoint = "checkpoint.pt";  // file inside the run dir, e.g. "best.pt"
@@ -26,9 +29,11 @@ struct LoadedRun {
   ModelContext context;
   data::DatasetInfo dataset;        // skeleton, layout, fps, labels of the training data
   data::DatasetStats stats;         // standardisation statistics
-  std::shared_ptr<MotionModel> model;  // in eval mode, on the requested device
+  FamilyKind kind = FamilyKind::kMotion;
+  std::shared_ptr<TrainableModel> trainable;  // the model, in eval mode, on the requested device
+  std::shared_ptr<MotionModel> model;  // the same when it generates motion (kind kMotion), else null
+  ModelTraits traits;               // model->traits() (default for classifiers), without LibTorch headers
   int step = 0;                     // optimiser steps of the loaded checkpoint
-  bool takes_labels = false;        // model->takes_labels(), for code without LibTorch headers
 };
 
 // Throws mosyn::Error naming the file when config.json, stats.json or the checkpoint is missing,

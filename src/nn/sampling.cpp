@@ -36,7 +36,7 @@ torch::Tensor label_tensor(const LoadedRun& run, const std::vector<int>& labels,
   for (int64_t i = 0; i < b && !labels.empty(); ++i) ids[i] = labels.size() == 1 ? labels[0] : labels[i];
   for (int64_t id : ids) {
     if (id == -1) continue;
-    if (!run.model->takes_labels())
+    if (!run.traits.labels)
       throw Error(run.run_dir + ": this " + run.family + " model was trained without labels; a " + what +
                   " label needs a model trained with \"labels\": true");
     if (id < 0 || id >= vocabulary)
@@ -52,6 +52,8 @@ void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& 
                   const std::vector<int>& content, const std::vector<int>& style) {
   const int64_t d = run.context.pose_dim, c = run.context.control_dim;
   if (!prefix_pose.empty()) {
+    if (!run.traits.prefix)
+      throw Error(run.run_dir + ": this " + run.family + " model cannot continue a given motion (no prefix)");
     if (prefix_pose.size() % d != 0) throw Error("prefix pose is not [P, " + std::to_string(d) + "]");
     const int64_t p = static_cast<int64_t>(prefix_pose.size()) / d;
     req.prefix_pose = st.pose(from_vector(prefix_pose, p, d)).unsqueeze(0).expand({b, p, d}).contiguous();
@@ -68,9 +70,11 @@ void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& 
 
 }  // namespace
 
-std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
-                                               std::uint64_t seed, double temperature, const SampleExtras& extras) {
-  if (!run.model) throw Error("sample_motions: run has no model");
+std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
+                                          std::uint64_t seed, double temperature, const SampleExtras& extras) {
+  if (!run.model)
+    throw Error(run.run_dir + ": the " + run.family + " family does not generate motion (it scores motions: use it with "
+                "mosyn eval --classifier)");
   if (n < 1) throw Error("sample_motions: n must be >= 1");
   const int64_t d = run.context.pose_dim, c = run.context.control_dim;
   if (control.empty() || control.size() % c != 0)
@@ -79,8 +83,9 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
     throw Error("sample_motions: warmup_frames must be >= 0 or kFamilyWarmup");
   const int64_t t = static_cast<int64_t>(control.size()) / c;
   int64_t w = extras.warmup_frames;
-  if (w == kFamilyWarmup) w = std::lround(run.model->default_warmup_s() * run.dataset.fps);
-  if (!extras.prefix_pose.empty()) w = 0;  // the real prefix is the start
+  if (w == kFamilyWarmup) w = std::lround(run.traits.default_warmup_s * run.dataset.fps);
+  // The real prefix is the start; a family that makes its own root motion cannot be told to stand.
+  if (!extras.prefix_pose.empty() || run.traits.control != InputUse::kTakes) w = 0;
   std::vector<float> full_control(static_cast<size_t>(w * c), 0.0f);
   full_control.insert(full_control.end(), control.begin(), control.end());
   Standardiser st(run.stats);
@@ -97,11 +102,21 @@ std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::
   req.temperature = temperature;
   req.seed = seed;
   model.eval();
-  auto out = st.unpose(model.sample(req).narrow(1, w, t).to(torch::kCPU, torch::kFloat32)).contiguous();
-  std::vector<std::vector<float>> result(n);
+  const SampleOutput out = model.sample(req);
+  const auto poses = st.unpose(out.pose.narrow(1, w, t).to(torch::kCPU, torch::kFloat32)).contiguous();
+  std::vector<SampledMotion> result(n);
+  if (run.traits.control == InputUse::kTakes) {  // exactly the caller's control, not a round trip
+    for (auto& r : result) r.control = control;
+  } else {
+    const auto controls = st.uncontrol(out.control.narrow(1, w, t).to(torch::kCPU, torch::kFloat32)).contiguous();
+    for (int i = 0; i < n; ++i) {
+      const float* p = controls[i].data_ptr<float>();
+      result[i].control.assign(p, p + t * c);
+    }
+  }
   for (int i = 0; i < n; ++i) {
-    const float* p = out[i].data_ptr<float>();
-    result[i].assign(p, p + t * d);
+    const float* p = poses[i].data_ptr<float>();
+    result[i].pose.assign(p, p + t * d);
   }
   return result;
 }
@@ -158,7 +173,7 @@ struct Generator::Impl {
 
   Impl(LoadedRun r, const GeneratorOptions& o) : run(std::move(r)), options(o), st(run.stats) {
     if (!run.model) throw Error("Generator: run has no model");
-    if (!run.model->supports_streaming())
+    if (!run.traits.streaming)
       throw Error("Generator: model family '" + run.family + "' cannot generate frame by frame");
     if (options.batch < 1) throw Error("Generator: batch must be >= 1");
     if (options.warmup_frames < 0) throw Error("Generator: warmup_frames must be >= 0");
@@ -184,7 +199,8 @@ struct Generator::Impl {
     // Standing warm-up (see SampleExtras::warmup_frames): zero raw control, outputs dropped.
     if (options.warmup_frames > 0) {
       const auto still = st.control(torch::zeros({options.batch, run.context.control_dim})).to(device);
-      for (int k = 0; k < options.warmup_frames; ++k) run.model->step_stream(*stream, still);
+      if (run.traits.control == InputUse::kTakes)
+        for (int k = 0; k < options.warmup_frames; ++k) run.model->step_stream(*stream, still);
     }
     roots.assign(options.batch, RootPose{});
     frames = 0;
@@ -212,15 +228,26 @@ Generator& Generator::operator=(Generator&&) noexcept = default;
 std::vector<float> Generator::step(const std::vector<float>& given) {
   auto& m = *impl_;
   const int64_t b = m.options.batch, c = m.run.context.control_dim, d = m.run.context.pose_dim;
-  if (given.size() != static_cast<size_t>(b * c))
-    throw Error("Generator::step: control must be [" + std::to_string(b) + ", " + std::to_string(c) + "]");
+  const bool takes_control = m.run.traits.control == InputUse::kTakes;
+  if (takes_control ? given.size() != static_cast<size_t>(b * c) : !given.empty())
+    throw Error(takes_control ? "Generator::step: control must be [" + std::to_string(b) + ", " + std::to_string(c) + "]"
+                              : "Generator::step: this " + m.run.family + " model makes its own root motion; give no control");
   for (float v : given)
     if (!std::isfinite(v)) throw Error("Generator::step: the control holds a NaN or infinite value");
-  m.last_control = given;
-  m.shape(m.last_control);
+  torch::Tensor pose;
+  if (takes_control) {
+    m.last_control = given;
+    m.shape(m.last_control);
+    auto ctrl = m.st.control(from_vector(m.last_control, b, c)).to(m.device);
+    pose = m.run.model->step_stream(*m.stream, ctrl).pose;
+  } else {
+    const StreamFrame frame = m.run.model->step_stream(*m.stream, torch::Tensor());
+    pose = frame.pose;
+    const auto made = m.st.uncontrol(frame.control.to(torch::kCPU, torch::kFloat32)).contiguous();
+    m.last_control.assign(made.data_ptr<float>(), made.data_ptr<float>() + b * c);
+  }
+  pose = m.st.unpose(pose.to(torch::kCPU, torch::kFloat32)).contiguous();
   const std::vector<float>& control = m.last_control;
-  auto ctrl = m.st.control(from_vector(control, b, c)).to(m.device);
-  auto pose = m.st.unpose(m.run.model->step_stream(*m.stream, ctrl).to(torch::kCPU, torch::kFloat32)).contiguous();
   // Root pose: integrate the delta (metres -> skeleton units) from the previous root pose.
   const auto& sk = m.run.dataset.skeleton;
   const double units = sk.meters_per_unit > 0 ? 1.0 / sk.meters_per_unit : 1.0;

@@ -11,7 +11,7 @@
 
 namespace mosyn::nn {
 
-// SampleExtras::warmup_frames value meaning "the family's own": MotionModel::default_warmup_s()
+// SampleExtras::warmup_frames value meaning "the family's own": ModelTraits::default_warmup_s
 // at the run's frame rate (MoGlow 1 s, rvae none).
 constexpr int kFamilyWarmup = -1;
 
@@ -28,21 +28,32 @@ struct SampleExtras {
   int warmup_frames = 0;
 };
 
-// n random motions for one control sequence, raw control [T, C] row-major (dx, dz metres,
-// dtheta radians, delta t-1 -> t). Returns n raw pose arrays [T, D] row-major. The n samples are
-// generated as one batch from a generator seeded with `seed`: same run + inputs + seed give
-// identical output; samples within a call and across seeds differ. temperature scales the latent
-// standard deviation (1 = the model's distribution). Throws mosyn::Error on size mismatches.
-std::vector<std::vector<float>> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
-                                               std::uint64_t seed, double temperature = 1.0,
-                                               const SampleExtras& extras = {});
+// One generated motion in raw feature units: the poses and the root motion they move along.
+struct SampledMotion {
+  std::vector<float> pose;     // [T, D] row-major
+  std::vector<float> control;  // [T, C] row-major (dx, dz metres, dtheta radians, delta t-1 -> t): the
+                               // given control, or the root motion a family generated (ModelTraits)
+  bool operator==(const SampledMotion& other) const { return pose == other.pose && control == other.control; }
+  bool operator!=(const SampledMotion& other) const { return !(*this == other); }
+};
+
+// n random motions of T frames, raw control [T, C] row-major (dx, dz metres, dtheta radians,
+// delta t-1 -> t). Families that take control follow it; families that generate their root motion
+// read only its length T (zeros will do) and return their own. The n samples are generated as one
+// batch from a generator seeded with `seed`: same run + inputs + seed give identical output;
+// samples within a call and across seeds differ. temperature scales the latent standard deviation
+// (1 = the model's distribution). Throws mosyn::Error on size mismatches, labels for a model that
+// takes none, and a prefix for a model that cannot continue motion.
+std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
+                                          std::uint64_t seed, double temperature = 1.0,
+                                          const SampleExtras& extras = {});
 
 // Raw pose [T, D] and control [T, C] to a clip on the run's skeleton (data::decode), starting at
 // the origin facing heading 0.
 Clip decode_motion(const LoadedRun& run, const std::vector<float>& pose, const std::vector<float>& control);
+Clip decode_motion(const LoadedRun& run, const SampledMotion& motion);
 
 // decode_motion written as a BVH file (io::from_clip, CMU-like channel layout) atomically.
-void write_motion_bvh(const std::string& path, const LoadedRun& run, const std::vector<float>& pose,
-                      const std::vector<float>& control);
+void write_motion_bvh(const std::string& path, const LoadedRun& run, const SampledMotion& motion);
 
 }  // namespace mosyn::nn

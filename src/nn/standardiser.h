@@ -22,6 +22,7 @@ class Standardiser {
   torch::Tensor pose(const torch::Tensor& raw) const { return (raw - pose_mean_) / pose_std_; }
   torch::Tensor control(const torch::Tensor& raw) const { return (raw - control_mean_) / control_std_; }
   torch::Tensor unpose(const torch::Tensor& standardised) const { return standardised * pose_std_ + pose_mean_; }
+  torch::Tensor uncontrol(const torch::Tensor& standardised) const { return standardised * control_std_ + control_mean_; }
 
  private:
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;

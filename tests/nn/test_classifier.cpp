@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "data/prepare.h"
 #include "nn/classifier/classifier.h"
+#include "nn/sampling.h"
 #include "nn/classifier/classify.h"
 #include "nn/model.h"
 #include "nn/run.h"
@@ -130,19 +131,21 @@ TEST_F(ClassifierTest, ClassifiesWholeClipsWithFeaturesAndProbabilities) {
 
 TEST_F(ClassifierTest, DoesNotGenerateAndNeedsLabels) {
   const LoadedRun run = load_run((*root_ / "run").string(), LoadOptions{"checkpoint.pt", "cpu", 1});
-  SampleRequest req;
-  req.control = torch::zeros({1, 10, 3});
+  EXPECT_EQ(run.kind, FamilyKind::kClassifier);
+  EXPECT_EQ(run.model, nullptr);  // a trainable model that is not a motion model
+  ASSERT_NE(run.trainable, nullptr);
+  EXPECT_THROW(sample_motions(run, std::vector<float>(30, 0.0f), 1, 1), Error);
+  ModelContext ctx;
+  ctx.pose_dim = 10;
+  EXPECT_THROW(create_trainable("classifier", nlohmann::json::object(), ctx), Error);
+  ctx.num_content = 3;
+  EXPECT_NO_THROW(create_trainable("classifier", nlohmann::json::object(), ctx));
   try {
-    run.model->sample(req);
-    FAIL() << "sample() should throw";
+    create_model("classifier", nlohmann::json::object(), ctx);
+    FAIL() << "a classifier is not a motion model";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("does not generate motion"));
   }
-  ModelContext ctx;
-  ctx.pose_dim = 10;
-  EXPECT_THROW(create_model("classifier", nlohmann::json::object(), ctx), Error);
-  ctx.num_content = 3;
-  EXPECT_NO_THROW(create_model("classifier", nlohmann::json::object(), ctx));
-  EXPECT_THROW(create_model("classifier", {{"kernel", 4}}, ctx), Error);
-  EXPECT_THROW(create_model("classifier", {{"nosuchkey", 1}}, ctx), Error);
+  EXPECT_THROW(create_trainable("classifier", {{"kernel", 4}}, ctx), Error);
+  EXPECT_THROW(create_trainable("classifier", {{"nosuchkey", 1}}, ctx), Error);
 }

@@ -54,13 +54,14 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   for (int f = 0; f < t; ++f) control.insert(control.end(), {0.0f, f == 0 ? 0.0f : float(1.2 / run.dataset.fps), 0.0f});
   auto poses = nn::sample_motions(run, control, 2, 9);
   ASSERT_EQ(poses.size(), 2u);
-  for (float v : poses[0]) ASSERT_TRUE(std::isfinite(v));
-  Clip clip = nn::decode_motion(run, poses[0], control);
+  for (float v : poses[0].pose) ASSERT_TRUE(std::isfinite(v));
+  EXPECT_EQ(poses[0].control, control);  // a family that takes control returns it unchanged
+  Clip clip = nn::decode_motion(run, poses[0]);
   EXPECT_EQ(clip.motion.num_frames, t);
   EXPECT_EQ(clip.motion.num_joints, run.dataset.skeleton.num_joints());
   EXPECT_NO_THROW(clip.motion.validate());
   const auto bvh = (root / "sample.bvh").string();
-  nn::write_motion_bvh(bvh, run, poses[1], control);
+  nn::write_motion_bvh(bvh, run, poses[1]);
   EXPECT_EQ(io::to_clip(io::read_bvh(bvh)).motion.num_frames, t);
 
   nn::GeneratorOptions go;
@@ -114,8 +115,8 @@ TEST(RealDataMoGlow, BandaiWalksTrainAndSample) {
   const int t = std::min(60, clip.num_frames);
   std::vector<float> control(clip.control.begin(), clip.control.begin() + 3 * t);
   auto poses = nn::sample_motions(run, control, 1, 1);
-  for (float v : poses[0]) ASSERT_TRUE(std::isfinite(v));
-  Clip out = nn::decode_motion(run, poses[0], control);
+  for (float v : poses[0].pose) ASSERT_TRUE(std::isfinite(v));
+  Clip out = nn::decode_motion(run, poses[0]);
   EXPECT_NO_THROW(out.motion.validate());
   fs::remove_all(root);
 }

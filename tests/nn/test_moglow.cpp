@@ -232,27 +232,27 @@ TEST(MoGlow, SamplingIsDeterministicPerSeedAndStreamsMatch) {
   req.prefix_pose = torch::randn({3, 5, 6});
   req.prefix_control = torch::randn({3, 5, 3});
   req.seed = 42;
-  auto a = model->sample(req);
-  auto b = model->sample(req);
+  auto a = model->sample(req).pose;
+  auto b = model->sample(req).pose;
   ASSERT_EQ(a.sizes(), (std::vector<int64_t>{3, 12, 6}));
   EXPECT_TRUE(torch::equal(a, b));
   EXPECT_TRUE(torch::isfinite(a).all().item<bool>());
   req.seed = 43;
-  auto c = model->sample(req);
+  auto c = model->sample(req).pose;
   EXPECT_GT((a - c).abs().max().item<double>(), 1e-3);
   // Frame-by-frame streaming gives the same frames as sample().
   req.seed = 42;
   auto stream = model->begin_stream(req);
   for (int64_t t = 0; t < 12; ++t) {
-    auto x = model->step_stream(*stream, req.control.select(1, t));
+    auto x = model->step_stream(*stream, req.control.select(1, t)).pose;
     EXPECT_TRUE(torch::allclose(x, a.select(1, t), 1e-5, 1e-6)) << "frame " << t;
   }
   // Temperature 0 is deterministic regardless of seed.
   req.temperature = 0.0;
   req.seed = 1;
-  auto d0 = model->sample(req);
+  auto d0 = model->sample(req).pose;
   req.seed = 2;
-  EXPECT_TRUE(torch::allclose(d0, model->sample(req)));
+  EXPECT_TRUE(torch::allclose(d0, model->sample(req).pose));
 }
 
 // Look-ahead: the mean control over the next k frames (the last frame repeating past the end),
@@ -277,18 +277,18 @@ TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
   auto pose = torch::randn({2, 7, 6}, torch::kFloat64);
   auto cond = model->conditioning(pose, control);
   EXPECT_TRUE(torch::allclose(cond.narrow(2, 2 * 6 + 3 * 3, 6), f.narrow(1, 2, 5).transpose(0, 1)));
-  EXPECT_FALSE(model->supports_streaming());
+  EXPECT_FALSE(model->traits().streaming);
   SampleRequest req;
   req.control = control;
   req.seed = 3;
-  auto a = model->sample(req);
+  auto a = model->sample(req).pose;
   EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 7, 6}));
-  EXPECT_TRUE(torch::equal(a, model->sample(req)));
+  EXPECT_TRUE(torch::equal(a, model->sample(req).pose));
   // The path ahead matters: another future gives another present.
   auto other = control.clone();
   other.narrow(1, 3, 4).add_(1.0);
   req.control = other;
-  EXPECT_FALSE(torch::allclose(a.select(1, 0), model->sample(req).select(1, 0)));
+  EXPECT_FALSE(torch::allclose(a.select(1, 0), model->sample(req).pose.select(1, 0)));
   auto stream = model->begin_stream(req);
   EXPECT_THROW(model->step_stream(*stream, control.select(1, 0)), mosyn::Error);
 }

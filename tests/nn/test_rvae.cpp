@@ -61,7 +61,7 @@ TEST(Rvae, ShapesForOddLengths) {
     EXPECT_TRUE(std::isfinite(terms.loss().item<double>()));
     SampleRequest req;
     req.control = control;
-    EXPECT_EQ(model->sample(req).sizes(), (std::vector<int64_t>{b, t, 6}));
+    EXPECT_EQ(model->sample(req).pose.sizes(), (std::vector<int64_t>{b, t, 6}));
   }
   EXPECT_EQ(RvaeOptions().reduction(), 4);  // paper: 240 -> 60 steps
 }
@@ -189,10 +189,10 @@ TEST(Rvae, ConditionalPriorKlByHandAndSampling) {
   SampleRequest req;
   req.control = torch::randn({2, 21, 3}, torch::kFloat64);
   req.seed = 3;
-  auto a = model->sample(req), b = model->sample(req);
+  auto a = model->sample(req).pose, b = model->sample(req).pose;
   EXPECT_TRUE(torch::equal(a, b));
   req.seed = 4;
-  EXPECT_FALSE(torch::equal(a, model->sample(req)));
+  EXPECT_FALSE(torch::equal(a, model->sample(req).pose));
   EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 21, 6}));
   cfg["free_running"] = 0.5;
   EXPECT_THROW(create_model("rvae", cfg, small_context()), Error);
@@ -296,33 +296,33 @@ TEST(Rvae, SamplingIsDeterministicPerSeed) {
   SampleRequest req;
   req.control = torch::randn({3, 29, 3});
   req.seed = 42;
-  auto a = model->sample(req), a2 = model->sample(req);
+  auto a = model->sample(req).pose, a2 = model->sample(req).pose;
   ASSERT_EQ(a.sizes(), (std::vector<int64_t>{3, 29, 6}));
   EXPECT_TRUE(torch::equal(a, a2));
   EXPECT_TRUE(torch::isfinite(a).all().item<bool>());
   req.seed = 43;
-  EXPECT_GT((a - model->sample(req)).abs().max().item<double>(), 1e-4);
+  EXPECT_GT((a - model->sample(req).pose).abs().max().item<double>(), 1e-4);
   // From the posterior of a prefix.
   req.prefix_pose = torch::randn({3, 5, 6});
   req.prefix_control = torch::randn({3, 5, 3});
   req.seed = 42;
-  auto p = model->sample(req);
+  auto p = model->sample(req).pose;
   ASSERT_EQ(p.sizes(), (std::vector<int64_t>{3, 29, 6}));
-  EXPECT_TRUE(torch::equal(p, model->sample(req)));
+  EXPECT_TRUE(torch::equal(p, model->sample(req).pose));
   req.seed = 44;
-  EXPECT_GT((p - model->sample(req)).abs().max().item<double>(), 1e-5);
+  EXPECT_GT((p - model->sample(req).pose).abs().max().item<double>(), 1e-5);
   req.prefix_control = torch::Tensor();  // mean control for the prefix
-  EXPECT_EQ(model->sample(req).sizes(), (std::vector<int64_t>{3, 29, 6}));
+  EXPECT_EQ(model->sample(req).pose.sizes(), (std::vector<int64_t>{3, 29, 6}));
   // Temperature 0: the prior mean / posterior mean, independent of the seed.
   req.prefix_pose = torch::Tensor();
   req.temperature = 0.0;
   req.seed = 1;
-  auto z0 = model->sample(req);
+  auto z0 = model->sample(req).pose;
   req.seed = 2;
-  EXPECT_TRUE(torch::equal(z0, model->sample(req)));
+  EXPECT_TRUE(torch::equal(z0, model->sample(req).pose));
   // Bad shapes throw.
   req.control = torch::randn({3, 29, 2});
-  EXPECT_THROW(model->sample(req), mosyn::Error);
+  EXPECT_THROW(model->sample(req).pose, mosyn::Error);
 }
 
 // "every_step": the prior latents of steps 1..L drawn in order from the seeded generator, every
@@ -339,7 +339,7 @@ TEST(Rvae, EveryStepLatentsByHand) {
   req.control = torch::randn({2, 17, 3});  // L = ceil(17 / 4) = 5 reduced steps
   req.seed = 7;
   req.temperature = 0.8;
-  const auto x = model->sample(req);
+  const auto x = model->sample(req).pose;
   torch::NoGradGuard no_grad;
   auto gen = at::detail::createCPUGenerator(7);
   auto first = 0.8 * torch::randn({2, 1, 5}, gen, torch::kFloat32);
@@ -352,7 +352,7 @@ TEST(Rvae, EveryStepLatentsByHand) {
   torch::manual_seed(1);
   auto free_running = create_model("rvae", cfg, small_context(6));
   free_running->eval();
-  EXPECT_GT((x - free_running->sample(req)).abs().max().item<double>(), 1e-4);
+  EXPECT_GT((x - free_running->sample(req).pose).abs().max().item<double>(), 1e-4);
   cfg["test_latents"] = "sometimes";
   EXPECT_THROW(create_model("rvae", cfg, small_context(6)), mosyn::Error);
 }
@@ -366,7 +366,7 @@ TEST(Rvae, SamplesControlLongerThanTrainingWindow) {
   SampleRequest req;
   req.control = torch::randn({2, 203, 3});
   req.seed = 5;
-  auto x = model->sample(req);
+  auto x = model->sample(req).pose;
   ASSERT_EQ(x.sizes(), (std::vector<int64_t>{2, 203, 6}));
   EXPECT_TRUE(torch::isfinite(x).all().item<bool>());
   // The latter part of a long sequence still follows the control (not constant across batch).
@@ -380,8 +380,8 @@ TEST(Rvae, RegistryAndConfig) {
   EXPECT_EQ(m->family(), "rvae");
   // Its first frames come from a latent, not a neutral history: no standing warm-up by default,
   // unlike MoGlow's mean-pose start.
-  EXPECT_EQ(m->default_warmup_s(), 0.0);
-  EXPECT_EQ(create_model("moglow", {{"num_steps", 2}, {"hidden", 8}}, small_context())->default_warmup_s(), 1.0);
+  EXPECT_EQ(m->traits().default_warmup_s, 0.0);
+  EXPECT_EQ(create_model("moglow", {{"num_steps", 2}, {"hidden", 8}}, small_context())->traits().default_warmup_s, 1.0);
   auto cfg = m->config();
   EXPECT_EQ(cfg.at("kernel"), 25);
   EXPECT_EQ(cfg.at("latent"), 128);
@@ -404,7 +404,7 @@ TEST(Rvae, RegistryAndConfig) {
                          ctx);
   SampleRequest req;
   req.control = torch::randn({1, 13, 3});
-  EXPECT_EQ(m3->sample(req).sizes(), (std::vector<int64_t>{1, 13, 6}));
+  EXPECT_EQ(m3->sample(req).pose.sizes(), (std::vector<int64_t>{1, 13, 6}));
 }
 
 TEST(Rvae, TrainsThroughSharedTrainer) {
@@ -446,7 +446,7 @@ TEST(Rvae, TrainsThroughSharedTrainer) {
   for (int t = 0; t < 50; ++t) control.insert(control.end(), {0.35f, 0.0f, 0.01f});
   auto a = sample_motions(run, control, 2, 9), b = sample_motions(run, control, 2, 9);
   ASSERT_EQ(a.size(), 2u);
-  ASSERT_EQ(a[0].size(), 50u * kDim);
+  ASSERT_EQ(a[0].pose.size(), 50u * kDim);
   EXPECT_EQ(a, b);
   EXPECT_NE(a[0], a[1]);
   EXPECT_NE(a, sample_motions(run, control, 2, 10));
@@ -454,7 +454,7 @@ TEST(Rvae, TrainsThroughSharedTrainer) {
   extras.prefix_pose.assign(5 * kDim, 0.1f);
   extras.warmup_frames = 3;
   const auto continued = sample_motions(run, control, 1, 9, 1.0, extras);
-  EXPECT_EQ(continued[0].size(), 50u * kDim);
+  EXPECT_EQ(continued[0].pose.size(), 50u * kDim);
   // A real prefix is the start: no standing warm-up is put between it and the control.
   extras.warmup_frames = 0;
   EXPECT_EQ(sample_motions(run, control, 1, 9, 1.0, extras), continued);

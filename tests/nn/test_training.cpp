@@ -198,7 +198,7 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   auto b = sample_motions(run, control, 2, 5);
   auto c = sample_motions(run, control, 2, 6);
   ASSERT_EQ(a.size(), 2u);
-  ASSERT_EQ(a[0].size(), static_cast<size_t>(t * kDim));
+  ASSERT_EQ(a[0].pose.size(), static_cast<size_t>(t * kDim));
   EXPECT_EQ(a, b);
   EXPECT_NE(a, c);
   EXPECT_NE(a[0], a[1]);
@@ -216,7 +216,7 @@ TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
     auto pose = gen.step(ctrl2);
     ASSERT_EQ(pose.size(), static_cast<size_t>(2 * kDim));
     for (int k = 0; k < 2; ++k)
-      for (int d = 0; d < kDim; ++d) EXPECT_NEAR(pose[k * kDim + d], a[k][f * kDim + d], 1e-4) << f;
+      for (int d = 0; d < kDim; ++d) EXPECT_NEAR(pose[k * kDim + d], a[k].pose[f * kDim + d], 1e-4) << f;
   }
   EXPECT_EQ(gen.frames(), t);
 
@@ -339,7 +339,7 @@ TEST(Training, InitFromGrowsNewConditionsAndLabelsCondition) {
   ASSERT_FALSE(messages.empty());
   EXPECT_NE(messages.front().find("initialised from"), std::string::npos) << messages.front();
   auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 1});
-  EXPECT_TRUE(b.model->takes_labels());
+  EXPECT_TRUE(b.model->traits().labels);
   EXPECT_EQ(b.config["model"]["hidden"], 8);  // the init run's architecture
   const std::vector<float> control(3 * 10, 0.1f);
   SampleExtras walk, run;
@@ -365,13 +365,12 @@ namespace {
 
 // A model whose loss is a fixed negative number (as a good model's NLL often is): validation
 // bookkeeping must not mistake it for "not validated".
-class NegativeLossModel : public MotionModel {
+class NegativeLossModel : public TrainableModel {
  public:
-  NegativeLossModel() : MotionModel("NegativeLossModel") { w_ = register_parameter("w", torch::zeros({1})); }
+  NegativeLossModel() : TrainableModel("NegativeLossModel") { w_ = register_parameter("w", torch::zeros({1})); }
   std::string family() const override { return "test_negative_loss"; }
   nlohmann::json config() const override { return nlohmann::json::object(); }
   LossTerms loss(const Batch&) override { return LossTerms{{{"loss", w_.sum() * 0 - 2.5}}}; }
-  torch::Tensor sample(const SampleRequest& r) override { return torch::zeros({r.control.size(0), r.control.size(1), kDim}); }
 
  private:
   torch::Tensor w_;
@@ -380,9 +379,10 @@ class NegativeLossModel : public MotionModel {
 }  // namespace
 
 TEST(Training, NegativeValidationLossIsLoggedAndKeepsBest) {
-  register_model_family("test_negative_loss", [](const nlohmann::json&, const ModelContext&) {
-    return std::make_shared<NegativeLossModel>();
-  });
+  register_family(FamilyInfo{"test_negative_loss", FamilyKind::kClassifier, "test: a constant negative loss",
+                             [](const nlohmann::json&, const ModelContext&) {
+                               return std::make_shared<NegativeLossModel>();
+                             }});
   const auto dir = temp_dir("negative_val");
   TrainOptions o = tiny_options(dir);
   o.family = "test_negative_loss";

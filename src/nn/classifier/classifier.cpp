@@ -75,7 +75,7 @@ nlohmann::json ClassifierOptions::to_json() const {
 }
 
 ClassifierImpl::ClassifierImpl(const ClassifierOptions& options, const ModelContext& context)
-    : MotionModel("Classifier"), options_(options), context_(context) {
+    : TrainableModel("Classifier"), options_(options), context_(context) {
   if (context.num_content < 1)
     throw Error("the classifier needs content labels, but the dataset has none (prepare it from a labelled source)");
   const int in = context.pose_dim + (options.use_control ? context.control_dim : 0);
@@ -131,17 +131,10 @@ LossTerms ClassifierImpl::loss(const Batch& batch) {
   return t;
 }
 
-torch::Tensor ClassifierImpl::sample(const SampleRequest&) {
-  throw Error("the classifier family does not generate motion (it scores motions: use it with mosyn eval --classifier)");
-}
-
-std::shared_ptr<MotionModel> make_classifier(const nlohmann::json& config, const ModelContext& context) {
-  return std::make_shared<ClassifierImpl>(ClassifierOptions::from_json(config), context);
-}
 
 ClassifierOutputs classify_windows(const LoadedRun& run, const std::vector<std::vector<float>>& poses,
                                    const std::vector<std::vector<float>>& controls) {
-  auto* model = dynamic_cast<ClassifierImpl*>(run.model.get());
+  auto* model = dynamic_cast<ClassifierImpl*>(run.trainable.get());
   if (!model) throw Error(run.run_dir + ": not a classifier run (family '" + run.family + "')");
   if (!controls.empty() && controls.size() != poses.size())
     throw Error("classify_windows: " + std::to_string(controls.size()) + " controls for " +
@@ -208,3 +201,13 @@ ClassifierOutputs classify_windows(const LoadedRun& run, const std::vector<std::
 }
 
 }  // namespace mosyn::nn
+
+// Inside the macro, names resolve in mosyn::nn.
+MOSYN_REGISTER_FAMILY(classifier,
+                      FamilyInfo{"classifier", FamilyKind::kClassifier,
+                                 "content / style classifier for recognisability metrics (Ghorbani et al. 2020)",
+                                 [](const nlohmann::json& config, const ModelContext& context) {
+                                   return std::make_shared<ClassifierImpl>(ClassifierOptions::from_json(config),
+                                                                           context);
+                                 },
+                                 {{"channels", 8}, {"kernel", 3}, {"features", 8}}})

@@ -1,8 +1,8 @@
 // Action / style classifier for recognisability metrics (Ghorbani et al. 2020, section 5.2): a
 // one-dimensional convolutional network over pose-feature windows, with adaptive average pooling
-// over time before the fully connected layers so any window length works. It is a MotionModel
-// family ("classifier") so that `mosyn train classifier` trains it with the generic trainer; it
-// does not generate motion (sample() throws).
+// over time before the fully connected layers so any window length works. It is a trainable model
+// (nn/trainable.h) registered as the family "classifier" of kind FamilyKind::kClassifier, so that
+// `mosyn train classifier` trains it with the generic trainer; it does not generate motion.
 //
 //   input x [B, T, D (+ C)]  standardised pose (and control) features, time on the conv axis
 //   Conv1d(D+C -> H, k) ReLU  Conv1d(H -> H, k, stride 2) ReLU  Conv1d(H -> H, k) ReLU
@@ -22,7 +22,8 @@
 #include <vector>
 
 #include "nn/classifier/classify.h"
-#include "nn/model.h"
+#include "nn/registry.h"
+#include "nn/trainable.h"
 
 namespace mosyn::nn {
 
@@ -40,7 +41,7 @@ struct ClassifierOptions {
   nlohmann::json to_json() const;
 };
 
-class ClassifierImpl : public MotionModel {
+class ClassifierImpl : public TrainableModel {
  public:
   // Throws mosyn::Error when the context has no content labels.
   ClassifierImpl(const ClassifierOptions& options, const ModelContext& context);
@@ -56,9 +57,6 @@ class ClassifierImpl : public MotionModel {
   // Terms: "loss", "content_ce", "content_acc" (fraction correct, 0..1) and, with styles,
   // "style_ce", "style_acc".
   LossTerms loss(const Batch& batch) override;
-
-  // Always throws mosyn::Error("the classifier family does not generate motion").
-  torch::Tensor sample(const SampleRequest& request) override;
 
   struct Output {
     torch::Tensor features;        // [B, F] penultimate activations (after ReLU)
@@ -76,8 +74,5 @@ class ClassifierImpl : public MotionModel {
   ModelContext context_;
 };
 TORCH_MODULE(Classifier);
-
-// Factory used by create_model("classifier", ...).
-std::shared_ptr<MotionModel> make_classifier(const nlohmann::json& config, const ModelContext& context);
 
 }  // namespace mosyn::nn

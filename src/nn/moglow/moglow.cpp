@@ -390,10 +390,20 @@ std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& reque
   return st;
 }
 
-torch::Tensor MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& control) {
+ModelTraits MoGlowImpl::traits() const {
+  ModelTraits t;
+  t.control = InputUse::kTakes;
+  t.labels = label_dim_ > 0;
+  t.prefix = true;
+  t.streaming = lookahead_dim_ == 0;
+  t.default_warmup_s = 1.0;
+  return t;
+}
+
+StreamFrame MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& control) {
   if (lookahead_dim_ > 0)
     throw Error("moglow: a model with look-ahead needs the path ahead and cannot stream frame by frame; use sample");
-  return next_frame(state, control, {});
+  return {next_frame(state, control, {}), control};
 }
 
 torch::Tensor MoGlowImpl::next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead) {
@@ -417,7 +427,7 @@ torch::Tensor MoGlowImpl::next_frame(StreamState& state, const torch::Tensor& co
   return pose;
 }
 
-torch::Tensor MoGlowImpl::sample(const SampleRequest& request) {
+SampleOutput MoGlowImpl::sample(const SampleRequest& request) {
   torch::NoGradGuard no_grad;
   if (!request.control.defined() || request.control.dim() != 3 || request.control.size(2) != context_.control_dim)
     throw Error("sample request: control must be [B, T, " + std::to_string(context_.control_dim) + "]");
@@ -429,12 +439,18 @@ torch::Tensor MoGlowImpl::sample(const SampleRequest& request) {
   for (int64_t t = 0; t < request.control.size(1); ++t)
     frames.push_back(next_frame(*stream, request.control.select(1, t), ahead.defined() ? ahead.select(1, t) : ahead));
   if (frames.empty())
-    return torch::zeros({request.control.size(0), 0, context_.pose_dim}, steps.front()->actnorm->bias.options());
-  return torch::stack(frames, 1);
-}
-
-std::shared_ptr<MotionModel> make_moglow(const nlohmann::json& config, const ModelContext& context) {
-  return std::make_shared<MoGlowImpl>(MoGlowOptions::from_json(config, context), context);
+    return {torch::zeros({request.control.size(0), 0, context_.pose_dim}, steps.front()->actnorm->bias.options()),
+            request.control};
+  return {torch::stack(frames, 1), request.control};
 }
 
 }  // namespace mosyn::nn
+
+// Inside the macro, names resolve in mosyn::nn.
+MOSYN_REGISTER_FAMILY(moglow, FamilyInfo{"moglow", FamilyKind::kMotion,
+                                         "MoGlow: normalising flow with LSTM conditioning (Henter et al. 2020)",
+                                         [](const nlohmann::json& config, const ModelContext& context) {
+                                           return std::make_shared<MoGlowImpl>(
+                                               MoGlowOptions::from_json(config, context), context);
+                                         },
+                                         {{"num_steps", 2}, {"hidden", 16}, {"tau", 3}, {"dropout", 0.5}}})

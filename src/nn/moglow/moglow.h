@@ -150,11 +150,12 @@ class MoGlowImpl : public MotionModel {
   // The first call in training mode initialises every ActNorm from this batch.
   LossTerms loss(const Batch& batch) override;
 
-  torch::Tensor sample(const SampleRequest& request) override;
-  bool supports_streaming() const override { return options_.lookahead.empty(); }
-  double default_warmup_s() const override { return 1.0; }
+  // Takes control, labels (when trained with them) and prefixes (as the pose history); streams
+  // unless it looks ahead; warms up for 1 s from the mean pose.
+  ModelTraits traits() const override;
+  SampleOutput sample(const SampleRequest& request) override;
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
-  torch::Tensor step_stream(StreamState& state, const torch::Tensor& control) override;
+  StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
 
   // Result of running the normalising direction over a window.
   struct Encoded {
@@ -185,7 +186,6 @@ class MoGlowImpl : public MotionModel {
   int cond_dim() const { return cond_dim_; }
   // Size of the label part of the conditioning: content + style vocabularies, or 0 without labels.
   int label_dim() const { return label_dim_; }
-  bool takes_labels() const override { return label_dim_ > 0; }
   // Look-ahead features [B, T, 3 * lookahead.size()] of a standardised control [B, T, C] (see
   // MoGlowOptions::lookahead); undefined without look-ahead.
   torch::Tensor lookahead_features(const torch::Tensor& control) const;
@@ -208,8 +208,5 @@ class MoGlowImpl : public MotionModel {
                           const torch::TensorOptions& options) const;
 };
 TORCH_MODULE(MoGlow);
-
-// Factory used by create_model("moglow", ...).
-std::shared_ptr<MotionModel> make_moglow(const nlohmann::json& config, const ModelContext& context);
 
 }  // namespace mosyn::nn

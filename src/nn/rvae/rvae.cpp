@@ -353,14 +353,22 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
   return out;
 }
 
-torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
+ModelTraits RvaeImpl::traits() const {
+  ModelTraits t;
+  t.control = InputUse::kTakes;
+  t.labels = label_dim_ > 0;
+  t.prefix = true;
+  return t;
+}
+
+SampleOutput RvaeImpl::sample(const SampleRequest& request) {
   torch::NoGradGuard no_grad;
   const int64_t d = context_.pose_dim, c = context_.control_dim, z = options_.latent;
   if (!request.control.defined() || request.control.dim() != 3 || request.control.size(2) != c)
     throw Error("sample request: control must be [B, T, " + std::to_string(c) + "]");
   const int64_t b = request.control.size(0), t = request.control.size(1);
   auto opts = cell->state_in->weight.options();
-  if (t == 0) return torch::zeros({b, 0, d}, opts);
+  if (t == 0) return {torch::zeros({b, 0, d}, opts), request.control};
   auto gen = at::detail::createCPUGenerator(request.seed);
   auto cpu = torch::TensorOptions().dtype(opts.dtype());
   auto control = request.control.to(opts);
@@ -393,18 +401,24 @@ torch::Tensor RvaeImpl::sample(const SampleRequest& request) {
   auto hc = encode_control(control, labels);
   if (conditional()) {
     auto x = decode_canvas(run_decoder_conditional(hc, latents, request.temperature, &gen));
-    return x.narrow(1, p, t).contiguous();
+    return {x.narrow(1, p, t).contiguous(), request.control};
   }
   if (options_.test_latents == "every_step" && hc.size(1) > latents.size(1)) {
     auto rest = request.temperature * torch::randn({b, hc.size(1) - latents.size(1), z}, gen, cpu);
     latents = torch::cat({latents, rest.to(opts.device())}, 1);
   }
   auto x = decode_canvas(run_decoder(hc, latents));
-  return x.narrow(1, p, t).contiguous();
-}
-
-std::shared_ptr<MotionModel> make_rvae(const nlohmann::json& config, const ModelContext& context) {
-  return std::make_shared<RvaeImpl>(RvaeOptions::from_json(config), context);
+  return {x.narrow(1, p, t).contiguous(), request.control};
 }
 
 }  // namespace mosyn::nn
+
+// Inside the macro, names resolve in mosyn::nn.
+MOSYN_REGISTER_FAMILY(rvae, FamilyInfo{"rvae", FamilyKind::kMotion,
+                                       "recurrent VAE: convolutional autoencoder with a recurrent latent (Habibie et al. 2017)",
+                                       [](const nlohmann::json& config, const ModelContext& context) {
+                                         return std::make_shared<RvaeImpl>(RvaeOptions::from_json(config), context);
+                                       },
+                                       {{"encoder_channels", {8, 12}}, {"control_channels", {6, 10}},
+                                        {"decoder_channels", {8}}, {"latent", 5}, {"kernel", 5}}})
+

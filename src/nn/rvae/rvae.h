@@ -131,8 +131,12 @@ class RvaeImpl : public MotionModel {
   // mean control when undefined): the prefix is encoded, its K = ceil(P / R) reduced steps take
   // z_k = mu_k + temperature sigma_k eps (teacher_latent), and the P prefix frames are cropped
   // from the output. The remaining steps run freely (test_latents "first") or each take a fresh
-  // z ~ N(0, temperature^2 I) in teacher mode ("every_step"). Returns [B, T, D].
-  torch::Tensor sample(const SampleRequest& request) override;
+  // z ~ N(0, temperature^2 I) in teacher mode ("every_step"). Returns poses [B, T, D] and
+  // request.control.
+  SampleOutput sample(const SampleRequest& request) override;
+  // Takes control, labels (when trained with them) and prefixes; offline only (the deconvolution
+  // decoder sees the future); no warm-up (the first latent comes from the prior or the prefix).
+  ModelTraits traits() const override;
 
   struct Posterior {
     torch::Tensor mean;    // [B, L, Z]
@@ -145,7 +149,6 @@ class RvaeImpl : public MotionModel {
   // undefined = none) join the control at every frame when the model takes labels.
   torch::Tensor encode_control(const torch::Tensor& control, const torch::Tensor& labels = {});
   int label_dim() const { return label_dim_; }
-  bool takes_labels() const override { return label_dim_ > 0; }
   // Runs the cell over the L reduced steps: h_c [B, L, Hc]; latents [B, K, Z] (K >= 1). Steps
   // k < K use latents[k] as the state entering the step (teacher_latent); steps k >= K run
   // from the previous cell state. K = L is the training mode. use_latent (optional [B, K] bool,
@@ -185,7 +188,5 @@ class RvaeImpl : public MotionModel {
 };
 TORCH_MODULE(Rvae);
 
-// Factory used by create_model("rvae", ...).
-std::shared_ptr<MotionModel> make_rvae(const nlohmann::json& config, const ModelContext& context);
 
 }  // namespace mosyn::nn

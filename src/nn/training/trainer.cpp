@@ -294,7 +294,7 @@ TrainResult train(const TrainOptions& opts, const data::Dataset& dataset, const 
     model_config = init_model_config(opts.init_from, family, model_config);
   }
   torch::manual_seed(opts.seed);
-  auto model = create_model(family, model_config, context);
+  auto model = create_trainable(family, model_config, context);
   model->to(device);
   if (!opts.resume && !opts.init_from.empty()) {
     const std::string from = (fs::path(opts.init_from) / "checkpoint.pt").string();
