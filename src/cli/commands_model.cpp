@@ -22,6 +22,7 @@
 #include "nn/checkpoint.h"
 #include "nn/model.h"
 #include "nn/run.h"
+#include "nn/sample_job.h"
 #include "nn/sampling.h"
 #include "nn/training/train.h"
 
@@ -152,130 +153,45 @@ struct SampleArgs {
   bool foot_lock = false;
 };
 
-int label_index(const std::vector<std::string>& vocabulary, const std::string& label, const char* what) {
-  if (label.empty()) return -1;
-  for (size_t i = 0; i < vocabulary.size(); ++i)
-    if (vocabulary[i] == label) return static_cast<int>(i);
-  std::string known;
-  for (const auto& v : vocabulary) known += (known.empty() ? "" : ", ") + v;
-  throw UsageError(std::string("unknown ") + what + " '" + label + "'; the run knows: " + known);
+nn::SampleJobOptions job_options(const SampleArgs& a) {
+  nn::SampleJobOptions o;
+  o.path = a.path;
+  o.speed_mps = a.speed_mps;
+  o.control_file = a.control_file;
+  o.data_dir = a.data_dir;
+  o.split = a.split;
+  o.clip = a.clip;
+  o.continue_file = a.continue_file;
+  o.observed_s = a.observed_s;
+  o.observed_frames = a.observed_frames;
+  o.seconds = a.seconds;
+  o.content = a.content;
+  o.style = a.style;
+  o.warmup_s = a.warmup_s;
+  o.n = a.n;
+  o.seed = a.seed;
+  o.temperature = a.temperature;
+  o.foot_lock = a.foot_lock;
+  return o;
 }
 
 void run_sample(const SampleArgs& a) {
-  const int sources = !a.path.empty() + !a.control_file.empty() + !a.data_dir.empty();
-  if (sources > 1) throw UsageError("give at most one of --path, --control and --data");
-  if (a.n < 1 || a.n > 10000) throw UsageError("--n must be in [1, 10000]");
-  if (a.seconds < 0 || a.seconds > 3600) throw UsageError("--seconds must be in [0, 3600]");
-  if (!(a.temperature >= 0)) throw UsageError("--temperature must not be negative");
-  if (!(a.speed_mps > 0)) throw UsageError("--speed must be positive");
-
-  if (!(a.observed_s > 0) || a.observed_s > 3600) throw UsageError("--observed must be in (0, 3600] seconds");
-  if (a.observed_frames == 0 || a.observed_frames < -1) throw UsageError("--observed-frames must be >= 1");
-
+  const nn::SampleJobOptions options = job_options(a);
   nn::LoadOptions load;
   load.checkpoint = a.checkpoint;
   load.threads = a.threads;
   const nn::LoadedRun run = nn::load_run(a.run_dir, load);
+  const nn::SamplePlan plan = nn::plan_sample(run, options);
+  const std::vector<nn::SampledClip> sampled = nn::run_sample(run, plan, options);
   const double fps = run.dataset.fps;
-
-  // --continue: the observed frames of a motion on the run's skeleton, as raw features.
-  std::vector<float> observed_pose, observed_control, own_rest_control;
-  int observed = 0;
-  Eigen::Vector3d start_position = Eigen::Vector3d::Zero();
-  double observed_heading = 0;
-  if (!a.continue_file.empty()) {
-    const Clip clip = io::to_clip(io::read_bvh(a.continue_file));
-    std::vector<float> pose, control;
-    // Output in the file's own world placement: where and facing where its motion starts.
-    data::encode_clip_for_dataset(run.dataset, clip, a.continue_file, &pose, &control, &start_position,
-                                  &observed_heading);
-    const int frames = static_cast<int>(control.size() / 3);
-    observed = a.observed_frames > 0 ? a.observed_frames : static_cast<int>(std::lround(a.observed_s * fps));
-    observed = std::max(observed, 1);
-    if (observed > frames)
-      throw Error(a.continue_file + ": " + std::to_string(frames) + " frames at the model's " + std::to_string(fps) +
-                  " fps, fewer than the " + std::to_string(observed) + " observed frames asked for");
-    const size_t d = static_cast<size_t>(run.context.pose_dim);
-    observed_pose.assign(pose.begin(), pose.begin() + observed * d);
-    observed_control.assign(control.begin(), control.begin() + observed * 3);
-    own_rest_control.assign(control.begin() + observed * 3, control.end());
-  }
-
-  // The control signal, raw [T, 3].
-  std::vector<float> control;
-  double start_heading = 0;
-  nlohmann::json control_desc;
-  bool encoded_by_dataset = false;  // a dataset clip's or the continued file's own (already smoothed) control
-  if (!a.control_file.empty()) {
-    if (extension_of(a.control_file) == "csv") {
-      control = data::control_from_csv(a.control_file);
-    } else {
-      control = data::control_from_clip(io::to_clip(io::read_bvh(a.control_file)), fps, &start_heading);
-    }
-    control_desc = {{"kind", "file"}, {"file", a.control_file}};
-  } else if (!a.data_dir.empty()) {
-    const data::Dataset dataset = data::Dataset::open(a.data_dir);
-    const auto& clips = dataset.clips(a.split);
-    if (a.clip < 0 || a.clip >= static_cast<int>(clips.size()))
-      throw UsageError("--clip must be in [0, " + std::to_string(clips.size()) + ") for split '" + a.split + "'");
-    control = clips[a.clip].control;
-    encoded_by_dataset = true;
-    control_desc = {{"kind", "dataset"}, {"dataset", a.data_dir}, {"split", a.split}, {"clip", a.clip},
-                    {"source", clips[a.clip].source}};
-  } else if (!a.continue_file.empty() && a.path.empty()) {
-    control = own_rest_control;  // the rest of the observed file's own root motion
-    encoded_by_dataset = true;
-    control_desc = {{"kind", "file"}, {"file", a.continue_file}, {"from_frame", observed}};
-    if (control.size() < 6 && a.seconds <= 0)
-      throw UsageError(a.continue_file + " has no frames after the " + std::to_string(observed) +
-                       " observed ones: give --path, --control or --seconds for the continuation");
-  } else {
-    data::PathOptions po;
-    po.speed_mps = a.speed_mps;
-    po.fps = fps;
-    po.seconds = a.seconds;
-    const std::string text = a.path.empty() ? "0,0 0,4 3,7" : a.path;
-    std::vector<data::Waypoint> path;
-    try {
-      path = data::parse_path(text);
-    } catch (const Error& e) {
-      throw UsageError(std::string("--path: ") + e.what());
-    }
-    control = data::control_from_path(path, po, &start_heading);
-    control_desc = {{"kind", "path"}, {"path", text}, {"speed_mps", a.speed_mps}};
-  }
-  // Paths and files shaped like the run's training controls (its dataset's root smoothing).
-  if (!encoded_by_dataset) control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
-  // --seconds cuts or extends (standing still) controls from files and datasets too.
-  if (a.seconds > 0) control.resize(3 * (static_cast<size_t>(a.seconds * fps) + 1), 0.0f);
-  const int num_frames = static_cast<int>(control.size() / 3);
-  if (num_frames < 2) throw Error("the control has fewer than 2 frames");
-
-  nn::SampleExtras extras;
-  extras.content = label_index(run.dataset.content_labels, a.content, "content label");
-  extras.style = label_index(run.dataset.style_labels, a.style, "style label");
-  extras.warmup_frames = a.warmup_s >= 0 ? static_cast<int>(std::lround(a.warmup_s * fps)) : nn::kFamilyWarmup;
-  extras.prefix_pose = observed_pose;
-  extras.prefix_control = observed_control;
-  auto motions = nn::sample_motions(run, control, a.n, a.seed, a.temperature, extras);
-  if (observed > 0) {  // written out as observed + continuation
-    for (auto& m : motions) {
-      m.pose.insert(m.pose.begin(), observed_pose.begin(), observed_pose.end());
-      m.control.insert(m.control.begin(), observed_control.begin(), observed_control.end());
-    }
-    start_heading = observed_heading;
-  }
-  const int total_frames = static_cast<int>(motions.front().control.size() / 3);
-
+  const int total_frames = sampled.front().clip.motion.num_frames;
   std::filesystem::create_directories(a.out_dir);
   for (int i = 0; i < a.n; ++i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
-    Clip clip = data::decode_features(run.dataset, motions[i].pose.data(), motions[i].control.data(), total_frames,
-                                      start_position, start_heading);
-    FootLockReport lock;
-    if (a.foot_lock) clip.motion = mosyn::foot_lock(clip.skeleton, clip.motion, {}, &lock);
+    const Clip& clip = sampled[i].clip;
+    const FootLockReport& lock = sampled[i].foot_lock;
     io::write_bvh(base + ".bvh", io::from_clip(clip));
     if (a.positions) {
       io::write_positions_npy(base + ".npy", total_frames, clip.skeleton.num_joints(),
@@ -289,10 +205,11 @@ void run_sample(const SampleArgs& a) {
                               {"temperature", a.temperature},
                               {"fps", fps},
                               {"frames", total_frames},
-                              {"control", control_desc},
+                              {"control", plan.control_description},
                               {"continued", a.continue_file.empty()
                                                 ? nlohmann::json(nullptr)
-                                                : nlohmann::json{{"file", a.continue_file}, {"observed_frames", observed}}},
+                                                : nlohmann::json{{"file", a.continue_file},
+                                                                 {"observed_frames", plan.observed_frames}}},
                               {"content", a.content},
                               {"style", a.style},
                               {"foot_lock", a.foot_lock ? nlohmann::json{{"contacts", lock.contacts},
@@ -301,6 +218,7 @@ void run_sample(const SampleArgs& a) {
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
     io::write_json(base + ".json", sidecar);
   }
+  const int observed = plan.observed_frames;
   std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s%s) to %s\n", a.n, total_frames, (total_frames - 1) / fps,
                observed > 0 ? (", the first " + std::to_string(observed) + " observed").c_str() : "", a.out_dir.c_str());
 }

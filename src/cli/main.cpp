@@ -27,6 +27,9 @@ int main(int argc, char** argv) {
   } catch (const mosyn::cli::UsageError& e) {
     std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
     return 2;
+  } catch (const mosyn::InvalidArgument& e) {  // a job's option check: a usage error too
+    std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
+    return 2;
   } catch (const mosyn::Error& e) {
     std::cerr << "mosyn: error: " << e.what() << "\n";
     return 1;

@@ -13,6 +13,14 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A request whose options are invalid or contradict each other (a flag out of range, an unknown
+// label, two control sources at once): the caller's mistake, found when a job validates its
+// options before running. The CLI exits with 2 for these, as for a malformed command line.
+class InvalidArgument : public Error {
+ public:
+  using Error::Error;
+};
+
 // An error at a place in an input file. what() reads "file:line: message"
 // (or "file: message" when line is 0, i.e. the error concerns the whole file).
 class ParseError : public Error {

@@ -83,16 +83,28 @@ bool spans_plane(const std::vector<Eigen::Vector3d>& v) {
 
 }  // namespace
 
-const char* to_string(PoseForm form) { return form == PoseForm::kRotations ? "rotations" : "positions"; }
+const char* to_string(PoseForm form) {
+  switch (form) {
+    case PoseForm::kRotations: return "rotations";
+    case PoseForm::kPositions: return "positions";
+  }
+  throw Error("invalid pose form " + std::to_string(static_cast<int>(form)));
+}
 
 PoseForm parse_pose_form(const std::string& text) {
-  if (text == "rotations") return PoseForm::kRotations;
-  if (text == "positions") return PoseForm::kPositions;
-  throw Error("unknown pose form '" + text + "' (expected rotations or positions)");
+  for (PoseForm form : kPoseForms)
+    if (text == to_string(form)) return form;
+  std::string known;
+  for (PoseForm form : kPoseForms) known += (known.empty() ? "" : " or ") + std::string(to_string(form));
+  throw Error("unknown pose form '" + text + "' (expected " + known + ")");
 }
 
 int expected_pose_dim(PoseForm form, int num_joints, bool smoothed_root) {
-  return form == PoseForm::kRotations ? 1 + 6 * num_joints + (smoothed_root ? 2 : 0) : 3 * num_joints;
+  switch (form) {
+    case PoseForm::kRotations: return 1 + 6 * num_joints + (smoothed_root ? 2 : 0);
+    case PoseForm::kPositions: return 3 * num_joints;
+  }
+  throw Error("invalid pose form " + std::to_string(static_cast<int>(form)));
 }
 
 GroundTrajectory control_trajectory(const Skeleton& skeleton, const Motion& motion, const FeatureLayout& layout) {
@@ -116,7 +128,8 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
   if (!(forward_in_root.norm() > 0)) throw Error("feature layout: forward_in_root must be non-zero");
   layout.forward_in_root = forward_in_root.normalized();
   const int num_joints = skeleton.num_joints();
-  if (form == PoseForm::kRotations) {
+  switch (form) {
+    case PoseForm::kRotations: {
     layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".height_m");
     auto add_r6d = [&](int j, const std::string& tag) {
       for (int k = 0; k < 6; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + tag + std::to_string(k));
@@ -127,10 +140,14 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
     if (root_smoothing_s > 0)
       for (int axis : floor_axes(skeleton))
         layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".offset_" + "xyz"[axis] + "_m");
-  } else {
+      break;
+    }
+    case PoseForm::kPositions: {
     static const char* kAxes[3] = {".x_m", ".y_m", ".z_m"};
     for (int j = 0; j < num_joints; ++j)
       for (int k = 0; k < 3; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + kAxes[k]);
+      break;
+    }
   }
   layout.pose_dim = static_cast<int>(layout.pose_names.size());
   layout.control_dim = 3;
@@ -159,7 +176,8 @@ void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const F
   for (int t = 0; t < num_frames; ++t) {
     const Eigen::Quaterniond heading_inv = heading_rotation(skeleton, ground.headings_rad[t]).conjugate();
     float* p = pose->data() + static_cast<size_t>(t) * layout.pose_dim;
-    if (layout.form == PoseForm::kRotations) {
+    switch (layout.form) {
+      case PoseForm::kRotations: {
       p[0] = static_cast<float>(world.position(t, root)[skeleton.up_axis] * mpu);
       const Vector6d r = rot6d_from_quat(heading_inv * world.rotation(t, root));
       for (int k = 0; k < 6; ++k) p[1 + k] = static_cast<float>(r[k]);
@@ -175,11 +193,15 @@ void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const F
         p[slot] = static_cast<float>(offset[floor[0]]);
         p[slot + 1] = static_cast<float>(offset[floor[1]]);
       }
-    } else {
+        break;
+      }
+      case PoseForm::kPositions: {
       const Eigen::Vector3d origin = ground.positions[t];
       for (int j = 0; j < num_joints; ++j) {
         const Eigen::Vector3d local = heading_inv * (world.position(t, j) - origin) * mpu;
         for (int k = 0; k < 3; ++k) p[3 * j + k] = static_cast<float>(local[k]);
+      }
+        break;
       }
     }
   }
@@ -230,7 +252,8 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
     return out;
   }();
 
-  if (layout.form == PoseForm::kRotations) {
+  switch (layout.form) {
+    case PoseForm::kRotations: {
     std::vector<Eigen::Quaterniond> world(num_joints);
     std::vector<Eigen::Vector3d> world_pos(num_joints);
     for (int t = 0; t < num_frames; ++t) {
@@ -270,7 +293,9 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
         motion.translation(t, root) = world[parent].conjugate() * (root_pos - world_pos[parent]);
       }
     }
-  } else {
+      break;
+    }
+    case PoseForm::kPositions: {
     // Inverse kinematics, top-down from the skeleton's root in world space.
     const double zero_length = kZeroBoneRelative * skeleton_size(skeleton);
     std::vector<std::vector<std::pair<Eigen::Vector3d, int>>> constraints(num_joints);
@@ -320,6 +345,8 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
         motion.rotation(t, j) = local;
         world[j] = (parent_world * local).normalized();
       }
+    }
+      break;
     }
   }
   return motion;

@@ -21,6 +21,10 @@ enum class PoseForm {
   kPositions,
 };
 
+// Every form, for tables and messages. Code that depends on the form switches over it without a
+// default, so a new form (e.g. markers) is a compile warning everywhere it needs handling.
+constexpr PoseForm kPoseForms[] = {PoseForm::kRotations, PoseForm::kPositions};
+
 const char* to_string(PoseForm form);
 // "rotations" or "positions"; throws mosyn::Error otherwise.
 PoseForm parse_pose_form(const std::string& text);

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "data/representation.h"
+
 namespace mosyn::nn {
 
 // What a model needs to know about the data it is built for.
@@ -13,7 +15,7 @@ struct ModelContext {
   int num_content = 0;      // size of the content-label vocabulary (0 = unlabelled)
   int num_style = 0;        // size of the style-label vocabulary (0 = unlabelled)
   double fps = 30.0;        // frame rate of the data (frames per second)
-  std::string pose_form = "rotations";  // "rotations" or "positions" (data::PoseForm), for defaults
+  data::PoseForm pose_form = data::PoseForm::kRotations;  // the features' form, for form-dependent defaults
 };
 
 }  // namespace mosyn::nn

@@ -6,7 +6,7 @@ namespace mosyn::nn {
 
 nlohmann::json context_to_json(const ModelContext& c) {
   return {{"pose_dim", c.pose_dim},       {"control_dim", c.control_dim}, {"num_content", c.num_content},
-          {"num_style", c.num_style},     {"fps", c.fps},                 {"pose_form", c.pose_form}};
+          {"num_style", c.num_style},     {"fps", c.fps},                 {"pose_form", data::to_string(c.pose_form)}};
 }
 
 ModelContext context_from_json(const nlohmann::json& j, const std::string& what) {
@@ -17,7 +17,7 @@ ModelContext context_from_json(const nlohmann::json& j, const std::string& what)
     c.num_content = j.at("num_content").get<int>();
     c.num_style = j.at("num_style").get<int>();
     c.fps = j.at("fps").get<double>();
-    c.pose_form = j.at("pose_form").get<std::string>();
+    c.pose_form = data::parse_pose_form(j.at("pose_form").get<std::string>());
     return c;
   } catch (const std::exception& e) {
     throw Error(what + ": malformed model context: " + e.what());
@@ -31,7 +31,7 @@ ModelContext context_for(const data::DatasetInfo& info) {
   c.num_content = static_cast<int>(info.content_labels.size());
   c.num_style = static_cast<int>(info.style_labels.size());
   c.fps = info.fps;
-  c.pose_form = info.layout.form == data::PoseForm::kRotations ? "rotations" : "positions";
+  c.pose_form = info.layout.form;
   return c;
 }
 

@@ -42,7 +42,7 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
 
   auto run = nn::load_run(o.out_dir, {"checkpoint.pt", "cpu", 1});
   EXPECT_EQ(run.step, 4);
-  EXPECT_EQ(run.context.pose_form, "rotations");
+  EXPECT_EQ(run.context.pose_form, data::PoseForm::kRotations);
   EXPECT_EQ(run.context.pose_dim, run.dataset.layout.pose_dim);
   EXPECT_FALSE(run.dataset.content_labels.empty());
   auto best = nn::load_run(o.out_dir, {"best.pt", "cpu", 1});

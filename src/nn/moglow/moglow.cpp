@@ -16,6 +16,16 @@ namespace mosyn::nn {
 
 namespace {
 
+// The paper's data dropout on the pose history: 0.95 for joint positions (Sec. 4.1), which carry
+// the motion's state redundantly; 0.6 for rotations, which do not.
+double default_dropout(data::PoseForm form) {
+  switch (form) {
+    case data::PoseForm::kRotations: return 0.6;
+    case data::PoseForm::kPositions: return 0.95;
+  }
+  throw Error("moglow: invalid pose form");
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -50,7 +60,7 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
     else if (k == "lookahead") o.lookahead = config_positive_ints(config, "lookahead", "moglow");
     else throw Error("moglow config: unknown key '" + k + "'");
   }
-  if (o.dropout < 0) o.dropout = context.pose_form == "positions" ? 0.95 : 0.6;
+  if (o.dropout < 0) o.dropout = default_dropout(context.pose_form);
   if (o.num_steps < 1) throw Error("moglow config: num_steps must be >= 1");
   if (o.hidden < 1) throw Error("moglow config: hidden must be >= 1");
   if (o.lstm_layers < 1) throw Error("moglow config: lstm_layers must be >= 1");
