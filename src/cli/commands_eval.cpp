@@ -1,5 +1,6 @@
 // `mosyn metrics`, `mosyn render` and `mosyn view`: metrics and pictures of any BVH files;
-// `mosyn eval` and `mosyn report`: a trained run scored against held-out data, and its HTML page.
+// `mosyn eval` and `mosyn report`: a trained run scored against held-out data, and its HTML page;
+// `mosyn compare` (commands_compare.cpp) is registered here too.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -304,6 +305,8 @@ void run_eval(EvalArgs a) {
   o.joint_errors = !a.no_joint_errors;
   if (!(o.error_frames_fps > 0)) throw UsageError("--error-fps must be positive");
   if (o.initial_frames < 1) throw UsageError("--initial-frames must be >= 1");
+  if (!(o.long_horizon_s >= 0) || !(o.long_horizon_window_s > 0))
+    throw UsageError("--long-horizon must not be negative and --long-horizon-window must be positive");
   o.classifier_dir = a.classifier;
   const data::Dataset dataset = data::Dataset::open(a.data_dir);
   ProgressLine progress;
@@ -356,8 +359,8 @@ void run_report(const ReportArgs& a) {
       motions.push_back(render::render_motion_from_clip(clips[i], render::motion_color(static_cast<int>(i)), 0.0,
                                                         base_name(files[i])));
   } else {
-    // Three short motions along a gentle curve, sampled here. Families that do not generate
-    // motion say so (mosyn::Error), and the page notes it instead.
+    // Three short motions along a gentle curve, sampled here. A classifier run does not generate
+    // motion, and the page says so instead.
     nn::LoadOptions load;
     load.threads = a.threads;
     const nn::LoadedRun loaded = nn::load_run(a.run_dir, load);
@@ -365,14 +368,14 @@ void run_report(const ReportArgs& a) {
     po.fps = loaded.dataset.fps;
     po.seconds = 4.0;
     const auto control = data::control_from_path(data::parse_path("0,0 0,2 1.5,4"), po);
-    try {
-      const auto poses = nn::sample_motions(loaded, control, 3, 1);
-      for (size_t i = 0; i < poses.size(); ++i)
-        motions.push_back(render::render_motion_from_clip(nn::decode_motion(loaded, poses[i], control),
+    if (!loaded.model) {
+      in.viewer_note = "No samples: the " + loaded.family + " family does not generate motion.";
+    } else {
+      const auto motions_made = nn::sample_motions(loaded, control, 3, 1);
+      for (size_t i = 0; i < motions_made.size(); ++i)
+        motions.push_back(render::render_motion_from_clip(nn::decode_motion(loaded, motions_made[i]),
                                                           render::motion_color(static_cast<int>(i)), 0.0,
                                                           "sample " + std::to_string(i + 1)));
-    } catch (const Error& e) {
-      in.viewer_note = std::string("No samples: ") + e.what();
     }
   }
   if (!motions.empty()) {
@@ -389,6 +392,9 @@ void run_report(const ReportArgs& a) {
 }
 
 }  // namespace
+
+// `mosyn compare` (commands_compare.cpp), registered with the other eval commands.
+void add_compare_command(CLI::App& app, Action* action);
 
 void add_eval_commands(CLI::App& app, Action* action) {
   {
@@ -489,6 +495,11 @@ void add_eval_commands(CLI::App& app, Action* action) {
                   "score them against the real clips (rows paths.*)");
     cmd->add_flag("--foot-lock", a->options.foot_lock,
                   "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
+    cmd->add_option("--long-horizon", a->options.long_horizon_s,
+                    "also sample this many seconds (a meandering walk, or free generation) and score stability per "
+                    "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");
+    cmd->add_option("--long-horizon-window", a->options.long_horizon_window_s,
+                    "long horizon: window length, s (default 10)");
     cmd->add_option("--foot-joints", a->foot_joints,
                     "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
     cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");
@@ -506,6 +517,7 @@ void add_eval_commands(CLI::App& app, Action* action) {
     cmd->add_option("--threads", a->threads, "CPU threads (default: all cores)");
     cmd->callback([action, a] { *action = [a] { run_report(*a); }; });
   }
+  add_compare_command(app, action);
 }
 
 }  // namespace mosyn::cli

@@ -46,12 +46,17 @@ struct EvalOptions {
   // Also sample every synthetic path of eval/path_protocol.h (num_samples each) and score them
   // against the real clips: rows "paths.<key>".
   bool synthetic_paths = false;
+  // Long-horizon stability (eval/protocol.h, "long_horizon"): N samples of this many seconds (a
+  // meandering walk at 1.3 m/s for families that take control, free generation otherwise), scored
+  // per window of long_horizon_window_s seconds: rows "long_horizon.*". 0 = off.
+  double long_horizon_s = 0;
+  double long_horizon_window_s = 10.0;
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
   std::string checkpoint = "checkpoint.pt";  // file of the run to evaluate (e.g. "best.pt"), run_dir overload
 };
 
 struct EvalProgress {
-  std::string stage;  // "sampling", "prediction", "classifier"
+  std::string stage;  // "sampling", "paths", "joint errors", "prediction", "classifier", "long horizon"
   int done = 0;
   int total = 0;
 };
@@ -76,6 +81,9 @@ struct EvalResult {
   int prediction_windows = 0;          // 0 when prediction did not run
   int joint_error_clips = 0;           // clips long enough for the joint errors (0: not run)
   std::vector<EvalRow> rows;
+  // Names of the protocols that ran (eval/protocol.h), in order. Not written by to_json (the file
+  // format stays as it was); empty after from_json.
+  std::vector<std::string> protocols;
 
   // The row with this key; throws mosyn::Error when absent.
   const EvalRow& row(const std::string& key) const;
@@ -87,7 +95,8 @@ struct EvalResult {
   static EvalResult from_json(const nlohmann::json& j);
 };
 
-// Rows, in order:
+// Runs every protocol of all_protocols() (eval/protocol.h) that the options enable and that applies
+// to the run's traits, in this order, so the rows are, in order:
 // - set metrics (set_metrics.h) of the real clips and, for the model, the mean over k = 1..N of
 //   the set of every clip's k-th sample (same size and controls as the real set, so counts such
 //   as footsteps compare directly);
@@ -109,7 +118,15 @@ struct EvalResult {
 //   clips with prefix + horizon frames;
 // - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
-//   clips split into two halves by index parity).
+//   clips split into two halves by index parity);
+// - with long_horizon_s > 0, for each window w<k>: "long_horizon.bone_length_rmse_cm.w<k>" (cm),
+//   "long_horizon.foot_skating_ratio.w<k>", "long_horizon.body_speed_mps.w<k>" (mean speed of the
+//   joints relative to the pelvis, m/s), each the mean over the N samples, real: the real clips
+//   whole; then "long_horizon.body_speed_ratio" (last window over first), ".frozen_fraction" and
+//   ".exploded_fraction" (real: n/a).
+// Families that generate their root motion are placed on the root motion they return; the
+// protocols that need a given control (paths, joint errors) or a prefix (joint errors,
+// prediction) are skipped for families without it.
 // Throws mosyn::Error when the split has no clip, the dataset does not match the run's features,
 // or the classifier's skeleton does not match the dataset's. A classifier trained on another
 // feature form of the same skeleton is fine: samples and real clips are decoded and re-encoded

@@ -23,7 +23,7 @@ std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, in
   const auto walk = std::find(labels.begin(), labels.end(), "walk");
   nn::SampleExtras extras;
   extras.warmup_frames = warmup_frames;
-  if (run.takes_labels && walk != labels.end()) extras.content = static_cast<int>(walk - labels.begin());
+  if (run.traits.labels && walk != labels.end()) extras.content = static_cast<int>(walk - labels.begin());
   const auto& paths = synthetic_paths();
   for (size_t i = 0; i < paths.size(); ++i) {
     data::PathOptions po;
@@ -31,8 +31,8 @@ std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, in
     po.fps = run.dataset.fps;
     const std::vector<float> control = data::smooth_control(
         data::control_from_path(data::parse_path(paths[i].path), po), po.fps, run.dataset.layout.root_smoothing_s);
-    for (const auto& pose : nn::sample_motions(run, control, n, seed + i, temperature, extras))
-      out.push_back(motion_positions(nn::decode_motion(run, pose, control), 0.0, paths[i].name));
+    for (const auto& motion : nn::sample_motions(run, control, n, seed + i, temperature, extras))
+      out.push_back(motion_positions(nn::decode_motion(run, motion), 0.0, paths[i].name));
   }
   return out;
 }

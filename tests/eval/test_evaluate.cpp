@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 #include <torch/utils.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
 #include "data/prepare.h"
+#include "eval/compare.h"
 #include "eval/evaluate.h"
 #include "eval/path_protocol.h"
 #include "eval/report.h"
@@ -263,6 +265,136 @@ TEST_F(EvaluateTest, RejectsBadOptions) {
   e.max_clips = 1;
   e.classifier_dir = (*root_ / "run").string();  // not a classifier
   EXPECT_THROW(eval::evaluate((*root_ / "run").string(), *dataset_, e), Error);
+}
+
+// The rows come protocol by protocol, in the order of all_protocols(): set metrics, diversity,
+// joint errors, prediction, classifier (what `mosyn eval` always wrote).
+TEST_F(EvaluateTest, ProtocolsRunInOrderAndRowsKeepTheirOrder) {
+  EXPECT_EQ(result_->protocols,
+            (std::vector<std::string>{"locomotion", "diversity", "joint_errors", "prediction", "recognition"}));
+  auto group = [](const std::string& key) {
+    for (const auto& [prefix, g] : std::vector<std::pair<std::string, int>>{
+             {"diversity.", 1}, {"fse", 1}, {"joint_error.", 2}, {"prediction.", 3}, {"classifier.", 4}})
+      if (key.rfind(prefix, 0) == 0) return g;
+    return 0;
+  };
+  int last = 0;
+  for (const auto& r : result_->rows) {
+    EXPECT_GE(group(r.key), last) << r.key;
+    last = group(r.key);
+  }
+  EXPECT_EQ(result_->rows.front().key, "motions");
+  EXPECT_EQ(result_->rows.back().key, "classifier.fid");
+  const std::vector<std::string> tail = {"diversity.apd_m", "diversity.mean_pose_distance_m", "fse",
+                                         "joint_error.motion_prior.f20"};
+  const auto at = std::find_if(result_->rows.begin(), result_->rows.end(),
+                               [](const eval::EvalRow& r) { return r.key == "diversity.apd_m"; });
+  ASSERT_NE(at, result_->rows.end());
+  for (size_t i = 0; i < tail.size(); ++i) EXPECT_EQ((at + static_cast<long>(i))->key, tail[i]);
+}
+
+// A family that generates its root motion and cannot continue motion: no drawn paths, joint
+// errors or prediction; the rest as for every family. (The traits are set on a loaded run.)
+TEST_F(EvaluateTest, TraitsDecideWhichProtocolsRun) {
+  nn::LoadedRun run = nn::load_run((*root_ / "run").string());
+  run.traits.control = nn::InputUse::kGenerates;
+  run.traits.prefix = false;
+  eval::EvalOptions e;
+  e.num_samples = 2;
+  e.max_clips = 2;
+  e.synthetic_paths = true;
+  e.threads = 1;
+  const auto r = eval::evaluate(run, *dataset_, e);
+  EXPECT_EQ(r.protocols, (std::vector<std::string>{"locomotion", "diversity"}));
+  EXPECT_NO_THROW(r.row("foot_skating_ratio"));
+  EXPECT_NO_THROW(r.row("diversity.apd_m"));
+  EXPECT_THROW(r.row("paths.motions"), Error);
+  EXPECT_THROW(r.row("joint_error.motion_prior.f70"), Error);
+  EXPECT_THROW(r.row("prediction.ade_m"), Error);
+  EXPECT_EQ(r.prediction_windows, 0);
+}
+
+TEST_F(EvaluateTest, LongHorizonRowsArePerWindowAndFinite) {
+  eval::EvalOptions e;
+  e.num_samples = 2;
+  e.max_clips = 2;
+  e.prediction = false;
+  e.joint_errors = false;
+  e.threads = 1;
+  e.long_horizon_s = 4.0;
+  e.long_horizon_window_s = 2.0;
+  const auto r = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  EXPECT_EQ(r.protocols.back(), "long_horizon");
+  for (const char* key : {"long_horizon.bone_length_rmse_cm.w0", "long_horizon.bone_length_rmse_cm.w1",
+                          "long_horizon.foot_skating_ratio.w0", "long_horizon.foot_skating_ratio.w1",
+                          "long_horizon.body_speed_mps.w0", "long_horizon.body_speed_mps.w1",
+                          "long_horizon.body_speed_ratio", "long_horizon.frozen_fraction",
+                          "long_horizon.exploded_fraction"}) {
+    SCOPED_TRACE(key);
+    EXPECT_TRUE(std::isfinite(r.row(key).model));
+  }
+  EXPECT_THROW(r.row("long_horizon.body_speed_mps.w2"), Error);  // 4 s in 2-s windows
+  EXPECT_TRUE(std::isfinite(r.row("long_horizon.body_speed_mps.w0").real));
+  EXPECT_GT(r.row("long_horizon.body_speed_mps.w1").model, 0.0);
+  EXPECT_THAT(r.row("long_horizon.body_speed_mps.w1").label, HasSubstr("(2-4 s)"));
+  EXPECT_EQ(r.row("long_horizon.exploded_fraction").model, 0.0);
+  // Off by default: the rows of the default evaluation do not change.
+  EXPECT_THROW(result_->row("long_horizon.frozen_fraction"), Error);
+}
+
+// Three runs on two datasets: one column per run, one real column per dataset, n/a where a
+// protocol does not apply (the run without prefix has no prediction).
+TEST_F(EvaluateTest, CompareRunsSideBySide) {
+  const nn::LoadedRun moglow = nn::load_run((*root_ / "run").string());
+  nn::LoadedRun no_prefix = moglow;
+  no_prefix.traits.prefix = false;
+  const nn::LoadedRun rvae = nn::load_run((*root_ / "rvae").string());
+  eval::CompareOptions o;
+  o.eval.num_samples = 2;
+  o.eval.max_clips = 2;
+  o.eval.prefix_s = 0.5;
+  o.eval.horizon_s = 1.0;
+  o.eval.error_frames = {20, 60};
+  o.eval.warmup_s = 0;
+  o.eval.threads = 1;
+  o.showcase_samples = 1;
+  o.showcase_seconds = 1.0;
+  const auto r = eval::compare({{"moglow", &moglow, dataset_, "rot"}, {"noprefix", &no_prefix, dataset_, "rot"},
+                                {"rvae", &rvae, positions_, "pos"}},
+                               o);
+  ASSERT_EQ(r.columns.size(), 5u);
+  EXPECT_EQ(r.columns[3].name, "real (rot)");
+  EXPECT_EQ(r.columns[4].name, "real (pos)");
+  auto row = [&](const std::string& key) -> const eval::CompareRow& {
+    for (const auto& x : r.rows)
+      if (x.key == key) return x;
+    throw Error("no row " + key);
+  };
+  const auto& ade = row("prediction.ade_m");
+  EXPECT_TRUE(std::isfinite(ade.values[0]));
+  EXPECT_TRUE(std::isnan(ade.values[1]));  // n/a: no prefix
+  EXPECT_TRUE(std::isfinite(ade.values[2]));
+  EXPECT_TRUE(std::isnan(ade.values[3]));
+  const auto& skating = row("foot_skating_ratio");
+  for (double v : skating.values) EXPECT_TRUE(std::isfinite(v));
+  // The real columns are the evaluations' real values.
+  EXPECT_EQ(row("motions").values[3], 2.0);
+  EXPECT_EQ(skating.values[4], r.evaluations[2].row("foot_skating_ratio").real);
+  EXPECT_EQ(r.rows.front().key, "motions");
+  EXPECT_EQ(r.showcase.size(), 5u);  // one per run, one real clip per dataset
+  const std::string md = eval::format_compare_markdown(r);
+  EXPECT_THAT(md, HasSubstr("| metric | moglow | noprefix | rvae | real (rot) | real (pos) |"));
+  EXPECT_THAT(md, HasSubstr("n/a"));
+  const nlohmann::json j = r.to_json();
+  EXPECT_EQ(j["format"], "mosyn-compare-1");
+  EXPECT_TRUE(j["metrics"]["prediction.ade_m"]["noprefix"].is_null());
+  EXPECT_TRUE(j["metrics"]["prediction.ade_m"]["rvae"].is_number());
+  EXPECT_EQ(j["runs"][2]["family"], "rvae");
+  const std::string html = eval::compare_html(r, "cmp <x>", "<html>viewer</html>", "note");
+  EXPECT_THAT(html, HasSubstr("cmp &lt;x&gt;"));
+  EXPECT_THAT(html, HasSubstr("<th>real (pos)</th>"));
+  EXPECT_THAT(html, HasSubstr("srcdoc=\"&lt;html&gt;viewer"));
+  EXPECT_THROW(eval::compare({}, o), Error);
 }
 
 TEST(Report, TrainingCurveSvgAndPage) {

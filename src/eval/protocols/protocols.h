@@ -1,0 +1,61 @@
+// The protocols of `mosyn eval` (eval/protocol.h), one source each, and the small helpers they
+// share. Internal to the eval layer: callers use all_protocols() and evaluate().
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "eval/protocol.h"
+
+namespace mosyn::eval {
+
+// Set metrics of the samples along the held-out controls beside the real clips' (and, with
+// foot_lock, of the foot-locked samples). Every motion model.
+std::unique_ptr<Protocol> make_locomotion_protocol();
+// Set metrics of N samples along each synthetic path (eval/path_protocol.h). Families that take
+// control; on with synthetic_paths.
+std::unique_ptr<Protocol> make_paths_protocol();
+// APD and distance to the per-frame mean pose across the N samples of one control, and FSE.
+// Every motion model.
+std::unique_ptr<Protocol> make_diversity_protocol();
+// Joint-position errors against the clip itself (Habibie et al. 2017). Families that take control
+// and continue a prefix; on with joint_errors.
+std::unique_ptr<Protocol> make_joint_errors_protocol();
+// Stochastic prediction from a real prefix (DLow's ADE/FDE/MMADE/MMFDE). Families that continue a
+// prefix; on with prediction.
+std::unique_ptr<Protocol> make_prediction_protocol();
+// Content / style accuracy, IS and FID by a classifier run. Every motion model; on with
+// classifier_dir.
+std::unique_ptr<Protocol> make_recognition_protocol();
+// Long-horizon stability over time windows. Every motion model; on with long_horizon_s > 0.
+std::unique_ptr<Protocol> make_long_horizon_protocol();
+
+namespace detail {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Mean of the finite values; NaN when there is none.
+double mean_finite(const std::vector<double>& values);
+
+// Rows [from, to) of a row-major matrix with `dim` columns.
+std::vector<float> rows_of(const std::vector<float>& a, int from, int to, int dim);
+
+// A row-major float matrix [rows, cols] as Eigen.
+Eigen::MatrixXd to_matrix(const std::vector<float>& v, int rows, int cols);
+
+// The id in run_labels of dataset label `id` (matched by name); -1 when absent or id < 0.
+int label_for_run(int id, const std::vector<std::string>& dataset_labels, const std::vector<std::string>& run_labels);
+
+// Joint positions relative to joint 0 (the pelvis) per frame: sequence [T, J * 3].
+Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence);
+
+// Extras with the run's "walk" content label (when it takes labels and knows "walk") and the
+// given warm-up: what the drawn-path protocols sample with.
+nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames);
+
+}  // namespace detail
+
+}  // namespace mosyn::eval

@@ -1,0 +1,81 @@
+// Which eval protocols run for which model traits and options (eval/protocol.h): decided by the
+// traits (control taken / generated / ignored, prefix), never by a family name.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "eval/protocol.h"
+
+using namespace mosyn;
+using Names = std::vector<std::string>;
+
+namespace {
+
+nn::ModelTraits traits(nn::InputUse control, bool prefix, bool labels = false) {
+  nn::ModelTraits t;
+  t.control = control;
+  t.prefix = prefix;
+  t.labels = labels;
+  return t;
+}
+
+eval::EvalOptions everything_on() {
+  eval::EvalOptions o;
+  o.synthetic_paths = true;
+  o.classifier_dir = "some/classifier";
+  o.long_horizon_s = 30;
+  return o;
+}
+
+}  // namespace
+
+TEST(Protocols, NamesAndOrder) {
+  Names names;
+  for (const auto& p : eval::all_protocols()) names.push_back(p->name());
+  EXPECT_EQ(names, (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "recognition",
+                          "long_horizon"}));
+}
+
+TEST(Protocols, DefaultOptionsForAFamilyThatTakesControlAndContinuesAPrefix) {
+  const auto t = traits(nn::InputUse::kTakes, true);
+  EXPECT_EQ(eval::protocols_for(t, {}), (Names{"locomotion", "diversity", "joint_errors", "prediction"}));
+  EXPECT_EQ(eval::protocols_for(t, everything_on()),
+            (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "recognition", "long_horizon"}));
+  eval::EvalOptions o;
+  o.prediction = false;
+  o.joint_errors = false;
+  EXPECT_EQ(eval::protocols_for(t, o), (Names{"locomotion", "diversity"}));
+  o.joint_errors = true;
+  o.error_frames.clear();  // no frame: nothing to score
+  EXPECT_EQ(eval::protocols_for(t, o), (Names{"locomotion", "diversity"}));
+}
+
+TEST(Protocols, GeneratedRootMotionSkipsWhatNeedsAGivenControl) {
+  // Dynamic Future Net / MOJO-like: the family makes its own root motion.
+  EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, false), everything_on()),
+            (Names{"locomotion", "diversity", "recognition", "long_horizon"}));
+  EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, true), everything_on()),
+            (Names{"locomotion", "diversity", "prediction", "recognition", "long_horizon"}));
+  EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kIgnores, true), everything_on()),
+            (Names{"locomotion", "diversity", "prediction", "recognition", "long_horizon"}));
+}
+
+TEST(Protocols, NoPrefixNoPredictionNorJointErrors) {
+  EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kTakes, false, true), everything_on()),
+            (Names{"locomotion", "paths", "diversity", "recognition", "long_horizon"}));
+}
+
+TEST(Protocols, ApplicabilityOfEachProtocol) {
+  for (const auto& p : eval::all_protocols()) {
+    SCOPED_TRACE(p->name());
+    const bool takes = p->applies_to(traits(nn::InputUse::kTakes, true));
+    const bool generates = p->applies_to(traits(nn::InputUse::kGenerates, true));
+    const bool no_prefix = p->applies_to(traits(nn::InputUse::kTakes, false));
+    EXPECT_TRUE(takes);  // a family that takes control and continues motion has every protocol
+    if (p->name() == "paths" || p->name() == "joint_errors") EXPECT_FALSE(generates);
+    else EXPECT_TRUE(generates);
+    if (p->name() == "prediction" || p->name() == "joint_errors") EXPECT_FALSE(no_prefix);
+    else EXPECT_TRUE(no_prefix);
+  }
+}
