@@ -336,7 +336,7 @@ TEST_F(EvaluateTest, LongHorizonRowsArePerWindowAndFinite) {
   EXPECT_THROW(r.row("long_horizon.body_speed_mps.w2"), Error);  // 4 s in 2-s windows
   EXPECT_TRUE(std::isfinite(r.row("long_horizon.body_speed_mps.w0").real));
   EXPECT_GT(r.row("long_horizon.body_speed_mps.w1").model, 0.0);
-  EXPECT_THAT(r.row("long_horizon.body_speed_mps.w1").label, HasSubstr("(2-4 s)"));
+  EXPECT_THAT(r.row("long_horizon.body_speed_mps.w1").label, HasSubstr("long horizon 2-4 s: body speed"));
   EXPECT_EQ(r.row("long_horizon.exploded_fraction").model, 0.0);
   // Off by default: the rows of the default evaluation do not change.
   EXPECT_THROW(result_->row("long_horizon.frozen_fraction"), Error);

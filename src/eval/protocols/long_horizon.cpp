@@ -151,9 +151,8 @@ void LongHorizonProtocol::run(EvalContext& ctx, EvalResult& result) const {
                          double real) {
     for (int k = 0; k < num_windows; ++k) {
       char at[64];
-      std::snprintf(at, sizeof at, " (%.3g-%.3g s)", k * seconds_per_window, (k + 1) * seconds_per_window);
-      result.rows.push_back({"long_horizon." + key + ".w" + std::to_string(k), "long horizon: " + label + at,
-                             mean_finite(v[k]), real});
+      std::snprintf(at, sizeof at, "long horizon %.3g-%.3g s: ", k * seconds_per_window, (k + 1) * seconds_per_window);
+      result.rows.push_back({"long_horizon." + key + ".w" + std::to_string(k), at + label, mean_finite(v[k]), real});
     }
   };
   add_windows("bone_length_rmse_cm", "bone-length RMSE (cm)", bone, mean_finite(real_bone));
