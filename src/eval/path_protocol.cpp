@@ -1,8 +1,7 @@
 #include "eval/path_protocol.h"
 
-#include <algorithm>
-
 #include "data/control.h"
+#include "eval/protocols/protocols.h"
 #include "nn/sampling.h"
 
 namespace mosyn::eval {
@@ -19,11 +18,7 @@ const std::vector<SyntheticPath>& synthetic_paths() {
 std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, int n, std::uint64_t seed,
                                                     double temperature, int warmup_frames) {
   std::vector<MotionPositions> out;
-  const auto& labels = run.dataset.content_labels;
-  const auto walk = std::find(labels.begin(), labels.end(), "walk");
-  nn::SampleExtras extras;
-  extras.warmup_frames = warmup_frames;
-  if (run.traits.labels && walk != labels.end()) extras.content = static_cast<int>(walk - labels.begin());
+  const nn::SampleExtras extras = detail::walk_extras(run, warmup_frames);
   const auto& paths = synthetic_paths();
   for (size_t i = 0; i < paths.size(); ++i) {
     data::PathOptions po;
