@@ -18,6 +18,11 @@ struct CheckpointState {
   std::string data_rng;     // std::mt19937_64 state as written by operator<<
   torch::Tensor torch_rng;  // default CPU generator state (uint8)
   double best_val_loss = std::numeric_limits<double>::quiet_NaN();  // NaN: never validated
+  // Training stage (nn/training/stage.h) of the last step done, and the steps done in it; -1 when
+  // not recorded (checkpoints made before stages: one stage, stage_step = step). The optimiser
+  // state is that of this stage.
+  int stage = -1;
+  int stage_step = -1;
 };
 
 // Writes model (parameters + buffers), optimizer (may be null) and state to path atomically.

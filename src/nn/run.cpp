@@ -139,6 +139,10 @@ void save_checkpoint(const std::string& path, TrainableModel& model, const torch
   archive.write("best_val_loss", c10::IValue(state.best_val_loss));
   archive.write("data_rng", c10::IValue(state.data_rng));
   if (state.torch_rng.defined()) archive.write("torch_rng", state.torch_rng, /*is_buffer=*/true);
+  if (state.stage >= 0) {
+    archive.write("stage", c10::IValue(static_cast<int64_t>(state.stage)));
+    archive.write("stage_step", c10::IValue(static_cast<int64_t>(state.stage_step)));
+  }
   torch::serialize::OutputArchive model_archive;
   model.save(model_archive);
   archive.write("model", model_archive);
@@ -171,6 +175,11 @@ CheckpointState load_checkpoint(const std::string& path, TrainableModel& model, 
     state.data_rng = v.toStringRef();
     torch::Tensor rng;
     if (archive.try_read("torch_rng", rng, /*is_buffer=*/true)) state.torch_rng = rng.to(torch::kCPU);
+    if (archive.try_read("stage", v) && v.isInt()) {
+      state.stage = static_cast<int>(v.toInt());
+      archive.read("stage_step", v);
+      state.stage_step = static_cast<int>(v.toInt());
+    }
     torch::serialize::InputArchive model_archive;
     archive.read("model", model_archive);
     load_module(model, model_archive);

@@ -1,5 +1,5 @@
 // What the generic trainer (nn/training/train.h) needs of a model: a loss on a batch, a config
-// that rebuilds it, and optionally a schedule hook. Motion models (nn/model.h) and the classifier
+// that rebuilds it, and optionally its training stages and schedule hooks. Motion models (nn/model.h) and the classifier
 // (nn/classifier/classifier.h) are both trainable models; only motion models generate.
 #pragma once
 
@@ -9,6 +9,9 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
+
+#include "nn/training/stage.h"
 
 namespace mosyn::nn {
 
@@ -43,9 +46,24 @@ class TrainableModel : public torch::nn::Module {
   // rebuilds the same architecture.
   virtual nlohmann::json config() const = 0;
 
-  // Called by the trainer before every training step (1-based step of total_steps), so a family
-  // can schedule loss weights (e.g. KL annealing) without trainer special cases. Default: no-op.
+  // Called by the trainer before every training step (1-based step of total_steps, counted over
+  // all stages), so a family can schedule loss weights (e.g. KL annealing) without trainer
+  // special cases. Default: no-op.
   virtual void set_progress(int step, int total_steps) {}
+
+  // The stages the trainer runs, in order (nn/training/stage.h): e.g. an autoencoder first, then
+  // a prior on its frozen latents. `defaults` carries the run's steps, lr and warm-up (TrainOptions)
+  // for the family to build from. The list must not depend on anything but the config and
+  // defaults: a resumed run rebuilds it to find where it stopped. Default: one stage,
+  // default_training_stage(defaults), training every parameter with Adam and the Noam schedule.
+  virtual std::vector<TrainingStage> training_stages(const TrainStageDefaults& defaults) const {
+    return {default_training_stage(defaults)};
+  }
+
+  // Called by the trainer when a stage begins (index into training_stages(), also on resume
+  // inside it), before its first step, so a family can switch its objective (e.g. loss() of the
+  // prior stage scores the prior only). Default: no-op.
+  virtual void begin_stage(int index, const TrainingStage& stage) {}
 
   // Training objective on a batch. Uses training-only regularisers (e.g. data dropout) only when
   // is_training(). Random choices draw from the default CPU generator (torch::manual_seed).

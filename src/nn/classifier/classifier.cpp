@@ -8,7 +8,7 @@
 #include <map>
 
 #include "core/error.h"
-#include "nn/config_json.h"
+#include "nn/options_fields.h"
 #include "nn/standardiser.h"
 
 namespace mosyn::nn {
@@ -41,38 +41,29 @@ Ce labelled_ce(const torch::Tensor& logits, const torch::Tensor& labels) {
   return out;
 }
 
+const OptionFields<ClassifierOptions>& classifier_fields() {
+  using O = ClassifierOptions;
+  static const auto fields =
+      OptionFields<O>("classifier")
+          .field("channels", &O::channels, "channels of every convolution", at_least(1))
+          .field("kernel", &O::kernel, "temporal kernel width", odd_at_least(1))
+          .field("features", &O::features, "size of the penultimate (feature) layer", at_least(1))
+          .field("dropout", &O::dropout, "dropout on the features in training", in_range(0.0, 1.0, false))
+          .field("use_control", &O::use_control, "also feed the control besides the pose")
+          .field("style_weight", &O::style_weight, "weight of the style cross-entropy", at_least(0.0));
+  return fields;
+}
+
 }  // namespace
 
 ClassifierOptions ClassifierOptions::from_json(const nlohmann::json& config) {
   ClassifierOptions o;
-  if (!config.is_object()) throw Error("classifier config must be a JSON object");
-  for (auto it = config.begin(); it != config.end(); ++it) {
-    const std::string& k = it.key();
-    if (k == "family") continue;
-    if (k == "channels") o.channels = config_int(config, "channels", "classifier");
-    else if (k == "kernel") o.kernel = config_int(config, "kernel", "classifier");
-    else if (k == "features") o.features = config_int(config, "features", "classifier");
-    else if (k == "dropout") o.dropout = config_double(config, "dropout", "classifier");
-    else if (k == "style_weight") o.style_weight = config_double(config, "style_weight", "classifier");
-    else if (k == "use_control") {
-      if (!it.value().is_boolean()) throw Error("classifier config: 'use_control' must be true or false");
-      o.use_control = it.value().get<bool>();
-    } else {
-      throw Error("classifier config: unknown key '" + k + "'");
-    }
-  }
-  if (o.channels < 1) throw Error("classifier config: channels must be >= 1");
-  if (o.kernel < 1 || o.kernel % 2 == 0) throw Error("classifier config: kernel must be odd and >= 1");
-  if (o.features < 1) throw Error("classifier config: features must be >= 1");
-  if (!(o.dropout >= 0 && o.dropout < 1)) throw Error("classifier config: dropout must be in [0, 1)");
-  if (!(o.style_weight >= 0)) throw Error("classifier config: style_weight must be >= 0");
+  classifier_fields().read(config, &o);
+  classifier_fields().check(o);
   return o;
 }
 
-nlohmann::json ClassifierOptions::to_json() const {
-  return {{"channels", channels}, {"kernel", kernel},           {"features", features},
-          {"dropout", dropout},   {"use_control", use_control}, {"style_weight", style_weight}};
-}
+nlohmann::json ClassifierOptions::to_json() const { return classifier_fields().write(*this); }
 
 ClassifierImpl::ClassifierImpl(const ClassifierOptions& options, const ModelContext& context)
     : TrainableModel("Classifier"), options_(options), context_(context) {

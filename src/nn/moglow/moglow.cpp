@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/options_fields.h"
 #include "nn/label_features.h"
 
 namespace mosyn::nn {
@@ -31,13 +32,46 @@ double default_dropout(data::PoseForm form) {
 // ---------------------------------------------------------------------------------------------
 // Options
 
+namespace {
+
+// Look-ahead offsets: at most 16, each at most 1000 frames (entries >= 1 is checked on reading).
+std::string lookahead_problem(const MoGlowOptions& o) {
+  if (o.lookahead.size() > 16) return "at most 16 look-ahead offsets";
+  for (int k : o.lookahead)
+    if (k > 1000) return "look-ahead offsets must be at most 1000 frames";
+  return "";
+}
+
+const OptionFields<MoGlowOptions>& moglow_fields() {
+  using O = MoGlowOptions;
+  static const auto fields =
+      OptionFields<O>("moglow")
+          .field("preset", &O::preset, "named defaults: \"default\" or \"paper\" (K=16, 2 x 512 LSTM, tau=10)")
+          .field("num_steps", &O::num_steps, "K, steps of flow", at_least(1))
+          .field("hidden", &O::hidden, "LSTM units per layer in each coupling network", at_least(1))
+          .field("lstm_layers", &O::lstm_layers, "LSTM layers per coupling network", at_least(1))
+          .field("tau", &O::tau, "frames of pose history conditioned on", at_least(1))
+          .field("dropout", &O::dropout, "data dropout of history frames; < 0 = by pose form", in_range(0.0, 1.0))
+          .field("scale_eps", &O::scale_eps, "coupling scale floor: s = sigmoid(h + 2) + scale_eps", at_least(0.0))
+          .field("labels", &O::labels, "content and style labels as conditions")
+          .written_if([](const O& o) { return o.labels; })
+          .field("label_dropout", &O::label_dropout, "probability a window's label is dropped in training",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.labels; })
+          .field_checked_on_read("lookahead", &O::lookahead, "look-ahead offsets (frames) of the path; empty = causal",
+                                 entries_at_least(1))
+          .written_if([](const O& o) { return !o.lookahead.empty(); })
+          .rule(lookahead_problem);
+  return fields;
+}
+
+}  // namespace
+
 MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const ModelContext& context) {
+  const auto& fields = moglow_fields();
   MoGlowOptions o;
   if (!config.is_object()) throw Error("moglow config must be a JSON object");
-  if (config.contains("preset")) {
-    if (!config["preset"].is_string()) throw Error("moglow config: 'preset' must be a string");
-    o.preset = config["preset"].get<std::string>();
-  }
+  if (config.contains("preset")) fields.read_key(config, "preset", &o);  // the preset's defaults first
   if (o.preset == "paper") {
     o.num_steps = 16;
     o.hidden = 512;
@@ -46,45 +80,15 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
   } else if (o.preset != "default") {
     throw Error("moglow config: unknown preset '" + o.preset + "' (known: default, paper)");
   }
-  for (auto it = config.begin(); it != config.end(); ++it) {
-    const std::string& k = it.key();
-    if (k == "preset" || k == "family") continue;
-    if (k == "num_steps") o.num_steps = config_int(config, "num_steps", "moglow");
-    else if (k == "hidden") o.hidden = config_int(config, "hidden", "moglow");
-    else if (k == "lstm_layers") o.lstm_layers = config_int(config, "lstm_layers", "moglow");
-    else if (k == "tau") o.tau = config_int(config, "tau", "moglow");
-    else if (k == "dropout") o.dropout = config_double(config, "dropout", "moglow");
-    else if (k == "scale_eps") o.scale_eps = config_double(config, "scale_eps", "moglow");
-    else if (k == "labels") o.labels = config_bool(config, "labels", "moglow");
-    else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "moglow");
-    else if (k == "lookahead") o.lookahead = config_positive_ints(config, "lookahead", "moglow");
-    else throw Error("moglow config: unknown key '" + k + "'");
-  }
+  fields.read(config, &o);
   if (o.dropout < 0) o.dropout = default_dropout(context.pose_form);
-  if (o.num_steps < 1) throw Error("moglow config: num_steps must be >= 1");
-  if (o.hidden < 1) throw Error("moglow config: hidden must be >= 1");
-  if (o.lstm_layers < 1) throw Error("moglow config: lstm_layers must be >= 1");
-  if (o.tau < 1) throw Error("moglow config: tau must be >= 1");
-  if (o.dropout > 1.0) throw Error("moglow config: dropout must be in [0, 1]");
-  if (o.scale_eps < 0) throw Error("moglow config: scale_eps must be >= 0");
-  if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("moglow config: label_dropout must be in [0, 1]");
-  if (o.lookahead.size() > 16) throw Error("moglow config: at most 16 look-ahead offsets");
-  for (int k : o.lookahead)
-    if (k > 1000) throw Error("moglow config: look-ahead offsets must be at most 1000 frames");
+  fields.check(o);
   return o;
 }
 
-nlohmann::json MoGlowOptions::to_json() const {
-  nlohmann::json j = {{"preset", preset},   {"num_steps", num_steps}, {"hidden", hidden},
-                      {"lstm_layers", lstm_layers}, {"tau", tau}, {"dropout", dropout}, {"scale_eps", scale_eps}};
-  // Written only when on, so configs of runs made before labels stay byte-identical.
-  if (labels) {
-    j["labels"] = true;
-    j["label_dropout"] = label_dropout;
-  }
-  if (!lookahead.empty()) j["lookahead"] = lookahead;
-  return j;
-}
+// Labels and look-ahead are written only when on, so configs of runs made before they existed stay
+// byte-identical.
+nlohmann::json MoGlowOptions::to_json() const { return moglow_fields().write(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // ActNorm

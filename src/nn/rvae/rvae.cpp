@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/options_fields.h"
 #include "nn/label_features.h"
 
 namespace mosyn::nn {
@@ -20,82 +21,71 @@ torch::Tensor activation(const torch::Tensor& x) { return torch::elu(x); }
 // ---------------------------------------------------------------------------------------------
 // Options
 
+namespace {
+
+std::string block_count_problem(const RvaeOptions& o) {
+  if (o.encoder_channels.empty() || o.encoder_channels.size() > 8)
+    return "encoder_channels must have 1 to 8 entries (one per conv/pool block)";
+  if (o.control_channels.size() != o.encoder_channels.size())
+    return "control_channels must have as many entries as encoder_channels";
+  if (o.decoder_channels.size() + 1 != o.encoder_channels.size())
+    return "decoder_channels must have one entry fewer than encoder_channels";
+  return "";
+}
+
+const OptionFields<RvaeOptions>& rvae_fields() {
+  using O = RvaeOptions;
+  static const auto fields =
+      OptionFields<O>("rvae")
+          .field_checked_on_read("encoder_channels", &O::encoder_channels, "inference-network conv channels per block",
+                                 entries_at_least(1))
+          .field_checked_on_read("control_channels", &O::control_channels, "control-encoder conv channels per block",
+                                 entries_at_least(1))
+          .field_checked_on_read("decoder_channels", &O::decoder_channels, "hidden deconv channels (blocks - 1)",
+                                 entries_at_least(1))
+          .rule(block_count_problem)
+          .field("latent", &O::latent, "latent size = decoder cell-state size", at_least(1))
+          .field("kernel", &O::kernel, "temporal kernel width of every conv", odd_at_least(1))
+          .field("input_dropout", &O::input_dropout, "dropout on the encoders' inputs in training",
+                 in_range(0.0, 1.0, false))
+          .field("kl_weight", &O::kl_weight, "weight of the KL term after annealing", at_least(0.0))
+          .field("kl_anneal", &O::kl_anneal, "fraction of the steps over which the KL weight ramps up",
+                 in_range(0.0, 1.0))
+          .field("l1", &O::l1, "L1 penalty on the weights", at_least(0.0))
+          .field("labels", &O::labels, "content and style labels as conditions")
+          .written_if([](const O& o) { return o.labels; })
+          .field("label_dropout", &O::label_dropout, "probability a window's label is dropped in training",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.labels; })
+          .field("free_running", &O::free_running, "probability a reduced step runs from the previous state",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.free_running > 0; })
+          .field("latent_prior", &O::latent_prior, "prior of the per-step latents",
+                 one_of({"standard", "conditional"}))
+          .written_if([](const O& o) { return o.latent_prior != "standard"; })
+          .field("prior_hidden", &O::prior_hidden, "width of the conditional prior's hidden layer", at_least(1))
+          .written_if([](const O& o) { return o.latent_prior != "standard"; })
+          .rule([](const O& o) {
+            return o.latent_prior == "conditional" && o.free_running > 0
+                       ? "a conditional latent prior draws every step's latent; free_running must be 0"
+                       : "";
+          })
+          .field("test_latents", &O::test_latents, "latents at generation time", one_of({"first", "every_step"}));
+  return fields;
+}
+
+}  // namespace
+
 RvaeOptions RvaeOptions::from_json(const nlohmann::json& config) {
   RvaeOptions o;
-  if (!config.is_object()) throw Error("rvae config must be a JSON object");
-  for (auto it = config.begin(); it != config.end(); ++it) {
-    const std::string& k = it.key();
-    if (k == "family") continue;
-    if (k == "encoder_channels") o.encoder_channels = config_positive_ints(config, "encoder_channels", "rvae");
-    else if (k == "control_channels") o.control_channels = config_positive_ints(config, "control_channels", "rvae");
-    else if (k == "decoder_channels") o.decoder_channels = config_positive_ints(config, "decoder_channels", "rvae");
-    else if (k == "latent") o.latent = config_int(config, "latent", "rvae");
-    else if (k == "kernel") o.kernel = config_int(config, "kernel", "rvae");
-    else if (k == "input_dropout") o.input_dropout = config_double(config, "input_dropout", "rvae");
-    else if (k == "kl_weight") o.kl_weight = config_double(config, "kl_weight", "rvae");
-    else if (k == "kl_anneal") o.kl_anneal = config_double(config, "kl_anneal", "rvae");
-    else if (k == "l1") o.l1 = config_double(config, "l1", "rvae");
-    else if (k == "labels") o.labels = config_bool(config, "labels", "rvae");
-    else if (k == "label_dropout") o.label_dropout = config_double(config, "label_dropout", "rvae");
-    else if (k == "free_running") o.free_running = config_double(config, "free_running", "rvae");
-    else if (k == "prior_hidden") o.prior_hidden = config_int(config, "prior_hidden", "rvae");
-    else if (k == "latent_prior") {
-      if (!it.value().is_string()) throw Error("rvae config: latent_prior must be \"standard\" or \"conditional\"");
-      o.latent_prior = it.value().get<std::string>();
-    }
-    else if (k == "test_latents") {
-      if (!it.value().is_string()) throw Error("rvae config: test_latents must be \"first\" or \"every_step\"");
-      o.test_latents = it.value().get<std::string>();
-    }
-    else throw Error("rvae config: unknown key '" + k + "'");
-  }
-  if (o.encoder_channels.empty() || o.encoder_channels.size() > 8)
-    throw Error("rvae config: encoder_channels must have 1 to 8 entries (one per conv/pool block)");
-  if (o.control_channels.size() != o.encoder_channels.size())
-    throw Error("rvae config: control_channels must have as many entries as encoder_channels");
-  if (o.decoder_channels.size() + 1 != o.encoder_channels.size())
-    throw Error("rvae config: decoder_channels must have one entry fewer than encoder_channels");
-  if (o.latent < 1) throw Error("rvae config: latent must be >= 1");
-  if (o.kernel < 1 || o.kernel % 2 == 0) throw Error("rvae config: kernel must be odd and >= 1");
-  if (!(o.input_dropout >= 0 && o.input_dropout < 1)) throw Error("rvae config: input_dropout must be in [0, 1)");
-  if (!(o.kl_weight >= 0)) throw Error("rvae config: kl_weight must be >= 0");
-  if (!(o.kl_anneal >= 0 && o.kl_anneal <= 1)) throw Error("rvae config: kl_anneal must be in [0, 1]");
-  if (!(o.l1 >= 0)) throw Error("rvae config: l1 must be >= 0");
-  if (!(o.label_dropout >= 0 && o.label_dropout <= 1)) throw Error("rvae config: label_dropout must be in [0, 1]");
-  if (!(o.free_running >= 0 && o.free_running <= 1)) throw Error("rvae config: free_running must be in [0, 1]");
-  if (o.latent_prior != "standard" && o.latent_prior != "conditional")
-    throw Error("rvae config: latent_prior must be \"standard\" or \"conditional\", not \"" + o.latent_prior + "\"");
-  if (o.prior_hidden < 1) throw Error("rvae config: prior_hidden must be >= 1");
-  if (o.latent_prior == "conditional" && o.free_running > 0)
-    throw Error("rvae config: a conditional latent prior draws every step's latent; free_running must be 0");
-  if (o.test_latents != "first" && o.test_latents != "every_step")
-    throw Error("rvae config: test_latents must be \"first\" or \"every_step\", not \"" + o.test_latents + "\"");
+  rvae_fields().read(config, &o);
+  rvae_fields().check(o);
   return o;
 }
 
-nlohmann::json RvaeOptions::to_json() const {
-  nlohmann::json j = {{"encoder_channels", encoder_channels},
-          {"control_channels", control_channels},
-          {"decoder_channels", decoder_channels},
-          {"latent", latent},
-          {"kernel", kernel},
-          {"input_dropout", input_dropout},
-          {"kl_weight", kl_weight},
-          {"kl_anneal", kl_anneal},
-          {"l1", l1},
-          {"test_latents", test_latents}};
-  // Written only when on, so configs of runs made before labels stay byte-identical.
-  if (labels) {
-    j["labels"] = true;
-    j["label_dropout"] = label_dropout;
-  }
-  if (free_running > 0) j["free_running"] = free_running;
-  if (latent_prior != "standard") {
-    j["latent_prior"] = latent_prior;
-    j["prior_hidden"] = prior_hidden;
-  }
-  return j;
-}
+// Labels, free running and the conditional prior are written only when on, so configs of runs
+// made before they existed stay byte-identical.
+nlohmann::json RvaeOptions::to_json() const { return rvae_fields().write(*this); }
 
 // ---------------------------------------------------------------------------------------------
 // ConvEncoder

@@ -5,13 +5,19 @@
 //                   "context" (ModelContext), "train" (TrainOptions), "dataset" (skeleton, layout,
 //                   fps, window, label vocabularies, file split: nn/run_info.h)}
 //   stats.json     the dataset's standardisation statistics (nn/run_info.h stats_to_json)
-//   checkpoint.pt  latest state: model parameters and buffers, Adam state, step, data-order RNG,
-//                  torch CPU RNG, best validation loss (LibTorch archive)
-//   best.pt        the same at the step with the lowest validation loss so far
+//   checkpoint.pt  latest state: model parameters and buffers, the current stage's optimiser
+//                  state, step, stage and step within it, data-order RNG, torch CPU RNG, best
+//                  validation loss (LibTorch archive)
+//   best.pt        the same at the step with the lowest validation loss so far (of the latest
+//                  stage reached: losses of different stages need not be comparable)
 //   log.jsonl      one JSON object per logged step: {"step", "loss", "lr", "time_s", metrics...}
-//                  and, at validation steps, "val_loss"
+//                  and, at validation steps, "val_loss"; runs of several stages add "stage" (name)
 // Every file is written atomically (temporary file + rename), so an interrupted run always
 // leaves the previous complete files.
+//
+// Training runs the model's stages (TrainableModel::training_stages, nn/training/stage.h) one
+// after another; most families have one, built from TrainOptions (steps, lr, warmup). Each stage
+// starts a fresh optimiser; validation, logging and checkpointing also happen at a stage's end.
 #pragma once
 
 #include <cstdint>
@@ -22,6 +28,7 @@
 #include <string>
 
 #include "data/dataset.h"
+#include "nn/training/stage.h"
 
 namespace mosyn::nn {
 
@@ -30,10 +37,11 @@ struct TrainOptions {
   std::string data_dir;           // prepared dataset directory (train(options) overload)
   std::string out_dir;            // run directory to create (or resume)
   nlohmann::json model_config = nlohmann::json::object();  // overrides of the family defaults
-  int steps = 10000;              // total optimiser steps (on resume: the new total)
+  int steps = 10000;              // total optimiser steps (on resume: the new total); families with
+                                  // several stages divide them as they declare
   int batch = 100;                // windows per batch
   int window = 0;                 // frames per window; 0 = the dataset's window_frames
-  double lr = 1e-3;               // peak learning rate (Adam)
+  double lr = 1e-3;               // peak learning rate (Adam; the default stage's)
   int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
   double grad_clip = 5.0;         // max global gradient L2 norm; <= 0 disables clipping
   std::uint64_t seed = 1;         // model init, data order and dropout
@@ -58,13 +66,18 @@ struct TrainOptions {
 
 // Reported to TrainCallbacks::on_progress every log_every steps and at validations.
 struct TrainProgress {
-  int step = 0;                 // optimiser steps done
-  int total_steps = 0;
+  int step = 0;                 // optimiser steps done, over all stages
+  int total_steps = 0;          // of all stages
+  std::string stage = "train";  // the current stage's name (TrainingStage::name)
+  int stage_index = 0;          // 0-based index of the current stage
+  int num_stages = 1;
+  int stage_step = 0;           // steps done in the current stage
+  int stage_steps = 0;          // steps of the current stage
   double loss = 0.0;            // training loss of this step
   std::map<std::string, double> metrics;  // the model's other loss terms (e.g. nll_frame)
   double val_loss = std::numeric_limits<double>::quiet_NaN();  // validation loss at this step (see has_val)
   bool has_val = false;
-  double lr = 0.0;
+  double lr = 0.0;              // learning rate of this step
   double steps_per_s = 0.0;     // recent training throughput
   double eta_s = 0.0;           // estimated seconds to the last step
   double elapsed_s = 0.0;       // wall time of this process's training so far
@@ -78,7 +91,7 @@ struct TrainCallbacks {
 
 struct TrainResult {
   std::string run_dir;
-  int step = 0;               // steps done when train returned
+  int step = 0;               // steps done when train returned (over all stages)
   double last_loss = 0.0;     // training loss of the last step
   double best_val_loss = std::numeric_limits<double>::quiet_NaN();  // NaN when never validated
   bool stopped_early = false;   // should_stop returned true
@@ -87,13 +100,15 @@ struct TrainResult {
 // Opens options.data_dir with data::Dataset::open and trains (see the overload).
 TrainResult train(const TrainOptions& options, const TrainCallbacks& callbacks = {});
 
-// Trains options.family on the dataset's train split into options.out_dir.
+// Trains options.family on the dataset's train split into options.out_dir, stage by stage.
+// Resuming continues inside the stage where the checkpoint ended (its optimiser state included).
 // Throws mosyn::Error when out_dir exists without resume/overwrite, when resuming finds no
-// (or a corrupt) checkpoint, when the dataset has no window long enough, and when the loss or
-// gradient becomes NaN/inf (the message names the step; the last good checkpoint is kept).
+// (or a corrupt) checkpoint, when the dataset has no window long enough, when the family's stages
+// are invalid or do not fit the model, and when the loss or gradient becomes NaN/inf (the message
+// names the step; the last good checkpoint is kept).
 TrainResult train(const TrainOptions& options, const data::Dataset& dataset, const TrainCallbacks& callbacks = {});
 
-// The Noam schedule value at a 1-based step.
-double noam_lr(double peak_lr, int warmup, int step);
+// The stage defaults (steps, lr, warmup) of options.
+TrainStageDefaults stage_defaults(const TrainOptions& options);
 
 }  // namespace mosyn::nn

@@ -1,0 +1,75 @@
+// TrainOptions as JSON (config.json "train", train-config.json files).
+#include <cstdint>
+#include <string>
+
+#include "core/error.h"
+#include "nn/training/train.h"
+
+namespace mosyn::nn {
+
+nlohmann::json TrainOptions::to_json() const {
+  return {{"family", family},
+          {"data_dir", data_dir},
+          {"out_dir", out_dir},
+          {"model_config", model_config},
+          {"steps", steps},
+          {"batch", batch},
+          {"window", window},
+          {"lr", lr},
+          {"warmup", warmup},
+          {"grad_clip", grad_clip},
+          {"seed", seed},
+          {"threads", threads},
+          {"device", device},
+          {"checkpoint_every", checkpoint_every},
+          {"validate_every", validate_every},
+          {"val_windows", val_windows},
+          {"log_every", log_every},
+          {"init_from", init_from}};
+}
+
+TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
+  TrainOptions o;
+  try {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const auto& k = it.key();
+      const auto& v = it.value();
+      if (k == "family") o.family = v.get<std::string>();
+      else if (k == "data_dir") o.data_dir = v.get<std::string>();
+      else if (k == "out_dir") o.out_dir = v.get<std::string>();
+      else if (k == "model_config") o.model_config = v;
+      else if (k == "steps") o.steps = v.get<int>();
+      else if (k == "batch") o.batch = v.get<int>();
+      else if (k == "window") o.window = v.get<int>();
+      else if (k == "lr") o.lr = v.get<double>();
+      else if (k == "warmup") o.warmup = v.get<int>();
+      else if (k == "grad_clip") o.grad_clip = v.get<double>();
+      else if (k == "seed") o.seed = v.get<std::uint64_t>();
+      else if (k == "threads") o.threads = v.get<int>();
+      else if (k == "device") o.device = v.get<std::string>();
+      else if (k == "resume") o.resume = v.get<bool>();
+      else if (k == "overwrite") o.overwrite = v.get<bool>();
+      else if (k == "checkpoint_every") o.checkpoint_every = v.get<int>();
+      else if (k == "validate_every") o.validate_every = v.get<int>();
+      else if (k == "val_windows") o.val_windows = v.get<int>();
+      else if (k == "log_every") o.log_every = v.get<int>();
+      else if (k == "init_from") o.init_from = v.get<std::string>();
+      else throw Error("unknown training option '" + k + "'");
+    }
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(std::string("bad training option: ") + e.what());
+  }
+  return o;
+}
+
+TrainStageDefaults stage_defaults(const TrainOptions& options) {
+  TrainStageDefaults d;
+  d.steps = options.steps;
+  d.lr = options.lr;
+  d.warmup = options.warmup;
+  return d;
+}
+
+}  // namespace mosyn::nn
