@@ -115,11 +115,16 @@ void run_train(TrainArgs& a) {
       std::snprintf(buf, sizeof buf, " %s %.4g", k.c_str(), v);
       extra += buf;
     }
-    std::snprintf(line, sizeof line, "step %d/%d  loss %.4f%s%s  lr %.2e  %.2f step/s  ETA %s", p.step, p.total_steps,
-                  p.loss, extra.c_str(),
+    // Runs of several stages say which one: "stage 2/3 prior 120/500  step ...".
+    std::string stage;
+    if (p.num_stages > 1)
+      stage = "stage " + std::to_string(p.stage_index + 1) + "/" + std::to_string(p.num_stages) + " " + p.stage + " " +
+              std::to_string(p.stage_step) + "/" + std::to_string(p.stage_steps) + "  ";
+    std::snprintf(line, sizeof line, "%sstep %d/%d  loss %.4f%s%s  lr %.2e  %.2f step/s  ETA %s", stage.c_str(),
+                  p.step, p.total_steps, p.loss, extra.c_str(),
                   p.has_val ? ("  val " + std::to_string(p.val_loss)).c_str() : "", p.lr, p.steps_per_s,
                   format_duration(p.eta_s).c_str());
-    progress.update(line, p.has_val || p.step == p.total_steps);
+    progress.update(line, p.has_val || p.stage_step == p.stage_steps);  // kept: validations, stage ends
   };
   callbacks.should_stop = [] { return g_interrupted.load(); };
   const nn::TrainResult r = nn::train(o, callbacks);

@@ -13,6 +13,7 @@
 #include "nn/options_fields.h"
 #include "nn/run_info.h"
 #include "nn/rvae/rvae.h"
+#include "nn/training/train.h"
 
 using namespace mosyn;
 using namespace mosyn::nn;
@@ -180,4 +181,30 @@ TEST(Options, FieldListReadsChecksAndWrites) {
   EXPECT_THROW(fields.read({{"weights", {"x"}}}, &t), Error);
   EXPECT_EQ(fields.docs().size(), 3u);
   EXPECT_EQ(fields.docs()[0].first, "n");
+}
+
+// The shipped models' training options (train-config.json "train", config.json "train") still load
+// and write back the same values; their "model" keys are valid options of the family.
+TEST(Options, ShippedTrainConfigsLoad) {
+  int seen = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(MOSYN_SOURCE_DIR) / "models")) {
+    for (const char* name : {"train-config.json", "config.json"}) {
+      const auto path = entry.path() / name;
+      if (!fs::exists(path)) continue;
+      const auto file = io::read_json(path.string());
+      if (!file.contains("train")) continue;
+      const TrainOptions o = TrainOptions::from_json(file.at("train"));
+      const nlohmann::json back = o.to_json();
+      for (const auto& [key, value] : file.at("train").items())
+        if (key != "resume" && key != "overwrite") EXPECT_EQ(back.at(key), value) << path << " " << key;
+      if (std::string(name) == "train-config.json" && file.contains("model")) {
+        if (entry.path().filename().string().rfind("moglow", 0) == 0)
+          EXPECT_NO_THROW(MoGlowOptions::from_json(file.at("model"), positions_context())) << path;
+        if (entry.path().filename().string().rfind("rvae", 0) == 0)
+          EXPECT_NO_THROW(RvaeOptions::from_json(file.at("model"))) << path;
+      }
+      ++seen;
+    }
+  }
+  EXPECT_GE(seen, 6);
 }

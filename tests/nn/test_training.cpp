@@ -2,6 +2,7 @@
 // corrupt checkpoints, load_run, sampling determinism from a run.
 #include <gtest/gtest.h>
 #include <torch/nn/module.h>
+#include <torch/optim/adam.h>
 #include <torch/utils.h>
 
 #include <cmath>
@@ -398,4 +399,35 @@ TEST(Training, NegativeValidationLossIsLoggedAndKeepsBest) {
     if (line.find("\"val_loss\":-2.5") != std::string::npos) ++val_lines;
   EXPECT_EQ(val_lines, 2);
   fs::remove_all(dir);
+}
+
+// A checkpoint written before training stages existed (no "stage" keys) resumes as the one stage,
+// exactly where it ended.
+TEST(Training, CheckpointWithoutStageResumesInTheOneStage) {
+  const auto ds = synthetic_dataset();
+  const auto dir_a = temp_dir("legacy_full"), dir_b = temp_dir("legacy_resumed");
+  train(tiny_options(dir_a), ds);
+  auto ob = tiny_options(dir_b);
+  ob.steps = 5;
+  train(ob, ds);
+  {  // Rewrite the checkpoint as the single-stage trainer did: the same tensors, no stage.
+    const std::string ckpt = (dir_b / "checkpoint.pt").string();
+    auto run = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 1});
+    torch::optim::Adam adam(run.trainable->parameters(), torch::optim::AdamOptions(1e-3));
+    CheckpointState state = load_checkpoint(ckpt, *run.trainable, &adam, torch::kCPU);
+    EXPECT_EQ(state.stage, 0);
+    EXPECT_EQ(state.stage_step, 5);
+    state.stage = state.stage_step = -1;
+    save_checkpoint(ckpt, *run.trainable, &adam, state);
+    EXPECT_EQ(load_checkpoint(ckpt, *run.trainable, nullptr, torch::kCPU).stage, -1);
+  }
+  ob.steps = 12;
+  ob.resume = true;
+  train(ob, ds);
+  auto a = load_run(dir_a.string(), {"checkpoint.pt", "cpu", 1});
+  auto b = load_run(dir_b.string(), {"checkpoint.pt", "cpu", 1});
+  EXPECT_EQ(b.step, 12);
+  EXPECT_EQ(max_param_diff(*a.model, *b.model), 0.0);
+  fs::remove_all(dir_a);
+  fs::remove_all(dir_b);
 }
