@@ -106,6 +106,27 @@ void add_data_commands(CLI::App& app, Action* action) {
   info->callback([action, dir] {
     *action = [dir] { std::printf("%s", data::dataset_summary(data::Dataset::open(*dir)).c_str()); };
   });
+
+  struct SynthArgs {
+    std::string out;
+    int takes = 2, frames = 90;
+    std::uint64_t seed = 1;
+  };
+  auto sy = std::make_shared<SynthArgs>();
+  CLI::App* synth = data_cmd->add_subcommand(
+      "synth", "Write a small Bandai-Namco-like folder of synthetic labelled walks (BVH + labels), for tests and trials");
+  synth->add_option("out", sy->out, "folder to write")->required();
+  synth->add_option("--takes", sy->takes, "takes per (content, style) pair")->capture_default_str()->check(
+      CLI::Range(1, 100));
+  synth->add_option("--frames", sy->frames, "frames per take at 30 fps")->capture_default_str()->check(
+      CLI::Range(2, 100000));
+  synth->add_option("--seed", sy->seed, "random seed")->capture_default_str();
+  synth->callback([action, sy] {
+    *action = [sy] {
+      data::write_synthetic_source(sy->out, sy->takes, sy->frames, sy->seed);
+      std::fprintf(stderr, "wrote synthetic takes to %s\n", sy->out.c_str());
+    };
+  });
 }
 
 }  // namespace mosyn::cli

@@ -52,24 +52,22 @@ inline std::filesystem::path fresh_dir(const std::string& name) {
   return dir;
 }
 
-// A small synthetic Bandai-like source (root/source), its dataset (root/dataset, windows of 40
-// frames) and a tiny MoGlow run trained for a few steps (root/run), made through the CLI.
-// Returns "" on success, else the failing command's stderr. extra_prepare_flags go to
-// `data prepare`.
-inline std::string make_tiny_moglow_run(const std::string& root, const std::string& extra_prepare_flags = "",
-                                        int steps = 4) {
+// The tiny committed test models (tests/models/, made by scripts/make_test_models.sh from the
+// project's synthetic motion), copied into a test's folder so tests may change them:
+// copy_test_model(root, "moglow", "run") copies tests/models/moglow to root/run.
+inline void copy_test_model(const std::string& root, const std::string& name, const std::string& as) {
+  namespace fs = std::filesystem;
+  fs::copy(fs::path(MOSYN_SOURCE_DIR) / "tests" / "models" / name, fs::path(root) / as,
+           fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+}
+
+// A small synthetic Bandai-like source (root/source), its dataset (root/dataset: joint rotations,
+// mirrored copies, windows of 40 frames) and a tiny MoGlow run (root/run) trained on it for 6
+// steps: the committed test models, no training here.
+inline void make_tiny_moglow_run(const std::string& root) {
   data::write_synthetic_source(root + "/source", 2, 90, 3);
-  const auto prep = run_mosyn("data prepare " + root + "/source --out " + root +
-                              "/dataset --window 40 --hop 10 --val 0.25 --threads 1 " + extra_prepare_flags);
-  if (prep.exit_code != 0) return "data prepare: " + prep.err;
-  std::ofstream(root + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 4}})";
-  const int every = std::max(1, steps / 2);
-  const auto train = run_mosyn("train moglow --data " + root + "/dataset --out " + root + "/run --config " + root +
-                               "/tiny.json --steps " + std::to_string(steps) + " --batch 4 --window 20 --warmup 0" +
-                               " --validate-every " + std::to_string(every) + " --checkpoint-every " +
-                               std::to_string(every) + " --threads 1");
-  if (train.exit_code != 0) return "train: " + train.err;
-  return "";
+  copy_test_model(root, "dataset-rotations", "dataset");
+  copy_test_model(root, "moglow", "run");
 }
 
 }  // namespace mosyn::testing

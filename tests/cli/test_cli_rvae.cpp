@@ -26,15 +26,10 @@ class CliRvaeTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ = new std::string(fresh_dir("cli_rvae").string());
+    // The committed tiny rvae (4 steps) on joint positions of the synthetic walks.
     data::write_synthetic_source(*root_ + "/source", 2, 90, 3);
-    const auto prep = run_mosyn("data prepare " + *root_ + "/source --out " + *root_ +
-                                "/dataset --form positions --window 40 --hop 10 --val 0.25 --threads 1");
-    ASSERT_EQ(prep.exit_code, 0) << prep.err;
-    std::ofstream(*root_ + "/tiny.json") << R"({"model": {"encoder_channels": [8, 8], "control_channels": [4, 4],
-        "decoder_channels": [8], "latent": 4, "kernel": 5}, "train": {"batch": 4, "window": 40, "warmup": 0}})";
-    const auto train = run_mosyn("train rvae --data " + *root_ + "/dataset --out " + *root_ + "/run --config " +
-                                 *root_ + "/tiny.json --steps 4 --validate-every 2 --checkpoint-every 2 --threads 1");
-    ASSERT_EQ(train.exit_code, 0) << train.err;
+    testing::copy_test_model(*root_, "dataset-positions", "dataset");
+    testing::copy_test_model(*root_, "rvae", "run");
   }
   static void TearDownTestSuite() { delete root_; }
   static std::string* root_;
