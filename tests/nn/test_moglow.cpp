@@ -295,14 +295,14 @@ TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
 
 TEST(MoGlow, ConfigPresetsAndErrors) {
   auto ctx = small_context(6);
-  ctx.pose_form = data::PoseForm::kPositions;
+  ctx.pose_form = mosyn::data::PoseForm::kPositions;
   auto o = MoGlowOptions::from_json({{"preset", "paper"}}, ctx);
   EXPECT_EQ(o.num_steps, 16);
   EXPECT_EQ(o.hidden, 512);
   EXPECT_EQ(o.lstm_layers, 2);
   EXPECT_EQ(o.tau, 10);
   EXPECT_DOUBLE_EQ(o.dropout, 0.95);
-  ctx.pose_form = data::PoseForm::kRotations;
+  ctx.pose_form = mosyn::data::PoseForm::kRotations;
   EXPECT_DOUBLE_EQ(MoGlowOptions::from_json(nlohmann::json::object(), ctx).dropout, 0.6);
   EXPECT_THROW(MoGlowOptions::from_json({{"nonsense", 1}}, ctx), mosyn::Error);
   EXPECT_THROW(MoGlowOptions::from_json({{"preset", "huge"}}, ctx), mosyn::Error);
