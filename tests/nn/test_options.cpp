@@ -196,12 +196,17 @@ TEST(Options, ShippedTrainConfigsLoad) {
       const TrainOptions o = TrainOptions::from_json(file.at("train"));
       const nlohmann::json back = o.to_json();
       for (const auto& [key, value] : file.at("train").items())
-        if (key != "resume" && key != "overwrite") EXPECT_EQ(back.at(key), value) << path << " " << key;
+        if (key != "resume" && key != "overwrite") {
+          EXPECT_EQ(back.at(key), value) << path << " " << key;
+        }
       if (std::string(name) == "train-config.json" && file.contains("model")) {
-        if (entry.path().filename().string().rfind("moglow", 0) == 0)
+        const std::string model_name = entry.path().filename().string();
+        if (model_name.rfind("moglow", 0) == 0) {
           EXPECT_NO_THROW(MoGlowOptions::from_json(file.at("model"), positions_context())) << path;
-        if (entry.path().filename().string().rfind("rvae", 0) == 0)
+        }
+        if (model_name.rfind("rvae", 0) == 0) {
           EXPECT_NO_THROW(RvaeOptions::from_json(file.at("model"))) << path;
+        }
       }
       ++seen;
     }
