@@ -13,6 +13,8 @@
 //   fields().read(config, &o);  // type errors and unknown keys
 //   fields().check(o);          // value checks, once, in declaration order
 //
+// The declaring calls (field, written_if, rule, ignore) chain on a temporary, so a list is built in
+// one expression and then only read (one static list per family).
 // Supported member types: int, double, bool, std::string, std::vector<int>, std::vector<double>.
 // Errors are mosyn::Error "<family> config: ...". Header-only; no LibTorch.
 #pragma once
