@@ -12,6 +12,7 @@
 #include "data/prepare.h"
 #include "eval/protocols/protocols.h"
 #include "io/html.h"
+#include "nn/sample_job.h"
 #include "nn/sampling.h"
 
 namespace mosyn::eval {
@@ -59,8 +60,7 @@ std::vector<ShowcaseMotion> showcase_of(const CompareEntry& e, int column, const
   std::vector<float> control = data::smooth_control(data::control_from_path(data::parse_path("0,0 0,2 1.5,4"), po),
                                                     po.fps, run.dataset.layout.root_smoothing_s);
   if (run.traits.control != nn::InputUse::kTakes) std::fill(control.begin(), control.end(), 0.0f);
-  const int warmup = o.eval.warmup_s >= 0 ? static_cast<int>(std::lround(o.eval.warmup_s * run.dataset.fps))
-                                          : nn::kFamilyWarmup;
+  const int warmup = nn::warmup_frames(run, o.eval.warmup_s);
   const auto motions = nn::sample_motions(run, control, o.showcase_samples, o.eval.seed, o.eval.temperature,
                                           detail::walk_extras(run, warmup));
   for (size_t k = 0; k < motions.size(); ++k)

@@ -4,13 +4,14 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "nn/sample_job.h"
 #include "core/foot_lock.h"
 #include "data/prepare.h"
 #include "eval/protocols/protocols.h"
 
 namespace mosyn::eval {
 
-using detail::label_for_run;
+using nn::translate_label;
 using detail::rows_of;
 
 Protocol::~Protocol() = default;
@@ -37,7 +38,7 @@ EvalContext::EvalContext(const nn::LoadedRun& run, const data::Dataset& dataset,
   const size_t n_clips = o.max_clips > 0 ? std::min<size_t>(o.max_clips, candidates.size()) : candidates.size();
   for (size_t i = 0; i < n_clips; ++i) chosen_.push_back(candidates[i * candidates.size() / n_clips]);
 
-  warmup_frames_ = o.warmup_s >= 0 ? static_cast<int>(std::lround(o.warmup_s * run.dataset.fps)) : nn::kFamilyWarmup;
+  warmup_frames_ = nn::warmup_frames(run, o.warmup_s);
   for (int i : chosen_) real_.push_back(motion_positions(data::decode_record(info, all[i]), 0.0, all[i].source));
 }
 
@@ -56,8 +57,8 @@ nn::SampleExtras EvalContext::clip_labels(size_t i) const {
   nn::SampleExtras extras;
   if (run_.traits.labels) {  // the clip's own labels, when the model is conditioned on labels
     const data::ClipRecord& rec = clip(i);
-    extras.content = label_for_run(rec.content, info().content_labels, run_.dataset.content_labels);
-    extras.style = label_for_run(rec.style, info().style_labels, run_.dataset.style_labels);
+    extras.content = translate_label(rec.content, info().content_labels, run_.dataset.content_labels);
+    extras.style = translate_label(rec.style, info().style_labels, run_.dataset.style_labels);
   }
   return extras;
 }

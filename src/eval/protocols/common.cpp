@@ -27,12 +27,6 @@ Eigen::MatrixXd to_matrix(const std::vector<float>& v, int rows, int cols) {
   return m;
 }
 
-int label_for_run(int id, const std::vector<std::string>& dataset_labels, const std::vector<std::string>& run_labels) {
-  if (id < 0 || id >= static_cast<int>(dataset_labels.size())) return -1;
-  const auto it = std::find(run_labels.begin(), run_labels.end(), dataset_labels[id]);
-  return it == run_labels.end() ? -1 : static_cast<int>(it - run_labels.begin());
-}
-
 Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence) {
   Eigen::MatrixXd out = sequence;
   for (Eigen::Index j = 0; j + 2 < out.cols(); j += 3) out.middleCols(j, 3) -= sequence.leftCols(3);

@@ -46,9 +46,6 @@ std::vector<float> rows_of(const std::vector<float>& a, int from, int to, int di
 // A row-major float matrix [rows, cols] as Eigen.
 Eigen::MatrixXd to_matrix(const std::vector<float>& v, int rows, int cols);
 
-// The id in run_labels of dataset label `id` (matched by name); -1 when absent or id < 0.
-int label_for_run(int id, const std::vector<std::string>& dataset_labels, const std::vector<std::string>& run_labels);
-
 // Joint positions relative to joint 0 (the pelvis) per frame: sequence [T, J * 3].
 Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence);
 

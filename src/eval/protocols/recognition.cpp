@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "nn/sample_job.h"
 #include "data/prepare.h"
 #include "eval/protocols/protocols.h"
 #include "nn/classifier/classify.h"
@@ -13,7 +14,7 @@ namespace mosyn::eval {
 namespace {
 
 using detail::kNaN;
-using detail::label_for_run;
+using nn::translate_label;
 using detail::to_matrix;
 
 // Classifier inputs (raw poses and controls) and label ids, of the samples or of the real clips.
@@ -59,8 +60,8 @@ void gather(EvalContext& ctx, const nn::LoadedRun& cls, Inputs* model, Inputs* r
   const auto& motions = ctx.sampled_motions();
   for (size_t i = 0; i < ctx.num_clips(); ++i) {
     const data::ClipRecord& rec = ctx.clip(i);
-    const int ci = label_for_run(rec.content, info.content_labels, cls.dataset.content_labels);
-    const int si = label_for_run(rec.style, info.style_labels, cls.dataset.style_labels);
+    const int ci = translate_label(rec.content, info.content_labels, cls.dataset.content_labels);
+    const int si = translate_label(rec.style, info.style_labels, cls.dataset.style_labels);
     for (int k = 0; k < ctx.num_samples(); ++k)
       add(model, motions[i][k].pose, motions[i][k].control, rec.source + " sample " + std::to_string(k), ci, si);
     add(real, rec.pose, rec.control, rec.source, ci, si);
