@@ -37,7 +37,7 @@ std::shared_ptr<MotionModel> make(int which) {
   ModelContext ctx;
   ctx.pose_dim = pose_dim_of(which);
   ctx.control_dim = 3;
-  ctx.pose_form = which == 0 ? data::PoseForm::kRotations : data::PoseForm::kPositions;
+  ctx.pose_form = which == 0 ? mosyn::data::PoseForm::kRotations : mosyn::data::PoseForm::kPositions;
   return create_model("moglow", config_of(which), ctx);
 }
 

@@ -25,7 +25,7 @@ std::shared_ptr<MotionModel> make(int which) {
   ModelContext ctx;
   ctx.pose_dim = kPoseDim;
   ctx.control_dim = 3;
-  ctx.pose_form = data::PoseForm::kPositions;
+  ctx.pose_form = mosyn::data::PoseForm::kPositions;
   return create_model("rvae", {{"kernel", which == 0 ? 13 : 25}}, ctx);
 }
 const char* name_of(int which) { return which == 0 ? "shipped" : "paper"; }

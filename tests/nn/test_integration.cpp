@@ -31,6 +31,7 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   data::prepare_dataset(po);
 
   nn::TrainOptions o;
+  o.family = "moglow";
   o.data_dir = po.output_dir;
   o.out_dir = (root / "run").string();
   o.model_config = {{"num_steps", 2}, {"hidden", 16}, {"tau", 4}};
@@ -92,6 +93,7 @@ TEST(RealDataMoGlow, BandaiWalksTrainAndSample) {
   data::prepare_dataset(po);
 
   nn::TrainOptions o;
+  o.family = "moglow";
   o.data_dir = po.output_dir;
   o.out_dir = (root / "run").string();
   o.model_config = {{"num_steps", 4}, {"hidden", 64}};

@@ -39,6 +39,7 @@ fs::path temp_dir(const std::string& name) {
 
 TrainOptions tiny_options(const fs::path& dir) {
   TrainOptions o;
+  o.family = "moglow";
   o.out_dir = dir.string();
   o.model_config = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.5}};
   o.steps = 12;

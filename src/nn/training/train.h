@@ -33,7 +33,7 @@
 namespace mosyn::nn {
 
 struct TrainOptions {
-  std::string family = "moglow";  // model family (create_model)
+  std::string family;             // registered model family (nn/registry.h), e.g. from `mosyn train FAMILY`
   std::string data_dir;           // prepared dataset directory (train(options) overload)
   std::string out_dir;            // run directory to create (or resume)
   nlohmann::json model_config = nlohmann::json::object();  // overrides of the family defaults
