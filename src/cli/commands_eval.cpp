@@ -396,127 +396,142 @@ void run_report(const ReportArgs& a) {
 // `mosyn compare` (commands_compare.cpp), registered with the other eval commands.
 void add_compare_command(CLI::App& app, Action* action);
 
+namespace {
+
+void add_picture_options(CLI::App* cmd, PictureArgs* a) {
+  cmd->add_option("files", a->files, "BVH files")->required();
+  cmd->add_option("--colors", a->colors, "comma-separated #rrggbb, one per file (default: a fixed cycle)");
+  cmd->add_option("--units-m", a->units_m, "metres per file unit (default: guessed from the skeleton size)");
+}
+
+void add_metrics_command(CLI::App& app, Action* action) {
+  auto a = std::make_shared<MetricsArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "metrics",
+      "Motion metrics of BVH files (footsteps, foot skating, bone lengths, rigid-part deformation, diversity, "
+      "spectral entropy), optionally beside a reference set; a Markdown table on stdout");
+  cmd->add_option("files", a->files, "BVH files")->required();
+  cmd->add_option("--reference", a->reference, "BVH files of the reference set (e.g. held-out data)");
+  cmd->add_option("--json", a->json_out, "also write all values (and the footstep curve) to this JSON file");
+  cmd->add_option("--foot-joints", a->foot_joints,
+                  "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
+  cmd->add_option("--units-m", a->units_m, "metres per file unit (default: guessed from the skeleton size)");
+  cmd->add_option("--v-tol-step", a->v_tol_step_cmps, "footstep tolerance increment, cm/s (default 1)");
+  cmd->add_option("--v-tol-max", a->v_tol_max_cmps, "largest footstep tolerance, cm/s (default 100)");
+  cmd->add_option("--min-step", a->min_step_s, "shortest footstep counted, s (default 0.1)");
+  cmd->add_flag("--toes", a->toes, "footsteps from toe joints instead of heels (quadrupeds)");
+  cmd->add_option("--skate-height", a->skating.height_threshold_m,
+                  "foot skating: height above the foot's lowest point counted as ground contact, m (default 0.05)");
+  cmd->add_option("--skate-speed", a->skating.speed_threshold_mps,
+                  "foot skating: horizontal speed limit, m/s (default 0.075)");
+  cmd->add_flag("--skate-any-foot", a->skate_any_foot,
+                "foot skating when either foot slides (default: both at once, as MOJO)");
+  cmd->callback([action, a] { *action = [a] { run_metrics(*a); }; });
+}
+
+void add_render_command(CLI::App& app, Action* action) {
+  auto a = std::make_shared<PictureArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "render", "Stick figures of BVH motions side by side (or overlaid) with ground paths: PNG, animated GIF, MP4");
+  add_picture_options(cmd, a.get());
+  cmd->add_option("--out", a->out, "output .png (one frame or a filmstrip), .gif or .mp4 (needs ffmpeg)")
+      ->required();
+  cmd->add_option("--camera", a->camera, "side, front, top or iso (default iso)");
+  cmd->add_option("--width", a->width, "pixels (default 640; of each filmstrip frame)");
+  cmd->add_option("--height", a->height, "pixels (default 480)");
+  cmd->add_option("--fps", a->fps, "frame rate of GIF/MP4 (default 25 for GIF, the motion's for MP4)");
+  cmd->add_option("--frame", a->frame, "PNG: frame index (at the first file's frame rate; default: mid-motion)");
+  cmd->add_option("--time", a->time_s, "PNG: time in seconds");
+  cmd->add_option("--filmstrip", a->filmstrip, "PNG: N frames evenly spaced over the motion, side by side");
+  cmd->add_flag("--overlay", a->overlay, "draw all motions in one panel");
+  cmd->add_flag("--follow", a->follow, "camera follows the figures (body-sized view) instead of fitting whole paths");
+  cmd->add_flag("--perspective", a->perspective, "perspective camera (default orthographic)");
+  cmd->add_flag("--no-grid", a->no_grid, "no ground grid");
+  cmd->add_flag("--no-paths", a->no_paths, "no ground paths");
+  cmd->callback([action, a] { *action = [a] { run_render(*a); }; });
+}
+
+void add_view_command(CLI::App& app, Action* action) {
+  auto a = std::make_shared<PictureArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "view", "A self-contained HTML page that plays BVH motions in the browser (three.js; works offline)");
+  add_picture_options(cmd, a.get());
+  cmd->add_option("--out", a->out, "output .html page")->required();
+  cmd->add_option("--title", a->title, "page title (default: the file names)");
+  cmd->callback([action, a] { *action = [a] { run_view(*a); }; });
+}
+
+void add_eval_command(CLI::App& app, Action* action) {
+  auto a = std::make_shared<EvalArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "eval",
+      "Score a trained run on held-out data: N samples per held-out control, every metric on the samples and on "
+      "the real clips (footsteps, skating, bone lengths, diversity, prediction ADE/FDE, IS/FID); Markdown table");
+  cmd->add_option("run", a->run_dir, "run directory (mosyn train --out)")->required();
+  cmd->add_option("--data", a->data_dir, "prepared dataset directory")->required();
+  cmd->add_option("--split", a->options.split, "split of the held-out clips: val or train (default val)");
+  cmd->add_option("--n", a->options.num_samples, "samples per control (default 10)");
+  cmd->add_option("--seed", a->options.seed, "random seed (default 1)");
+  cmd->add_option("--max-clips", a->options.max_clips, "evaluate at most this many clips, evenly spread (default all)");
+  cmd->add_option("--out", a->out, "also write every value to this JSON file (e.g. RUN/metrics.json)");
+  cmd->add_option("--checkpoint", a->options.checkpoint, "checkpoint file of the run (default checkpoint.pt; e.g. best.pt)");
+  cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
+  cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
+  cmd->add_option("--warmup", a->options.warmup_s,
+                  "seconds of standing generated before each synthesised clip and dropped (default: the "
+                  "family's, 1 for moglow, 0 for rvae)")
+      ->check(CLI::Range(0.0, 60.0));
+  cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");
+  cmd->add_option("--horizon", a->options.horizon_s, "prediction: seconds predicted (default 2)");
+  cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
+                  "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
+  cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
+  cmd->add_option("--error-frames", a->options.error_frames,
+                  "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000000));
+  cmd->add_option("--error-fps", a->options.error_frames_fps,
+                  "frame rate the --error-frames are counted at; converted by time (default 60, the paper's)");
+  cmd->add_option("--initial-frames", a->options.initial_frames,
+                  "joint errors: real frames observed before the continuation (default 4, the paper's)");
+  cmd->add_flag("--no-joint-errors", a->no_joint_errors, "skip the joint-position errors");
+  cmd->add_flag("--paths", a->options.synthetic_paths,
+                "also walk N samples along drawn paths (curve, zigzag, stop-and-go, straight at 0.8/1.3/1.8 m/s) and "
+                "score them against the real clips (rows paths.*)");
+  cmd->add_flag("--foot-lock", a->options.foot_lock,
+                "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
+  cmd->add_option("--long-horizon", a->options.long_horizon_s,
+                  "also sample this many seconds (a meandering walk, or free generation) and score stability per "
+                  "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");
+  cmd->add_option("--long-horizon-window", a->options.long_horizon_window_s,
+                  "long horizon: window length, s (default 10)");
+  cmd->add_option("--foot-joints", a->foot_joints,
+                  "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
+  cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");
+  cmd->callback([action, a] { *action = [a] { run_eval(*a); }; });
+}
+
+void add_report_command(CLI::App& app, Action* action) {
+  auto a = std::make_shared<ReportArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "report", "One self-contained HTML page about a run: config, training curves, metrics beside real data, "
+                "sample motions in the browser viewer");
+  cmd->add_option("run", a->run_dir, "run directory")->required();
+  cmd->add_option("--metrics", a->metrics, "mosyn eval --out JSON (default: RUN/metrics.json when present)");
+  cmd->add_option("--samples", a->samples, "folder of BVH samples to show (default: sample 3 short motions)");
+  cmd->add_option("--out", a->out, "output .html page")->required();
+  cmd->add_option("--threads", a->threads, "CPU threads (default: all cores)");
+  cmd->callback([action, a] { *action = [a] { run_report(*a); }; });
+}
+
+}  // namespace
+
 void add_eval_commands(CLI::App& app, Action* action) {
-  {
-    auto a = std::make_shared<MetricsArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "metrics",
-        "Motion metrics of BVH files (footsteps, foot skating, bone lengths, rigid-part deformation, diversity, "
-        "spectral entropy), optionally beside a reference set; a Markdown table on stdout");
-    cmd->add_option("files", a->files, "BVH files")->required();
-    cmd->add_option("--reference", a->reference, "BVH files of the reference set (e.g. held-out data)");
-    cmd->add_option("--json", a->json_out, "also write all values (and the footstep curve) to this JSON file");
-    cmd->add_option("--foot-joints", a->foot_joints,
-                    "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
-    cmd->add_option("--units-m", a->units_m, "metres per file unit (default: guessed from the skeleton size)");
-    cmd->add_option("--v-tol-step", a->v_tol_step_cmps, "footstep tolerance increment, cm/s (default 1)");
-    cmd->add_option("--v-tol-max", a->v_tol_max_cmps, "largest footstep tolerance, cm/s (default 100)");
-    cmd->add_option("--min-step", a->min_step_s, "shortest footstep counted, s (default 0.1)");
-    cmd->add_flag("--toes", a->toes, "footsteps from toe joints instead of heels (quadrupeds)");
-    cmd->add_option("--skate-height", a->skating.height_threshold_m,
-                    "foot skating: height above the foot's lowest point counted as ground contact, m (default 0.05)");
-    cmd->add_option("--skate-speed", a->skating.speed_threshold_mps,
-                    "foot skating: horizontal speed limit, m/s (default 0.075)");
-    cmd->add_flag("--skate-any-foot", a->skate_any_foot,
-                  "foot skating when either foot slides (default: both at once, as MOJO)");
-    cmd->callback([action, a] { *action = [a] { run_metrics(*a); }; });
-  }
-  auto add_picture_options = [](CLI::App* cmd, PictureArgs* a) {
-    cmd->add_option("files", a->files, "BVH files")->required();
-    cmd->add_option("--colors", a->colors, "comma-separated #rrggbb, one per file (default: a fixed cycle)");
-    cmd->add_option("--units-m", a->units_m, "metres per file unit (default: guessed from the skeleton size)");
-  };
-  {
-    auto a = std::make_shared<PictureArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "render", "Stick figures of BVH motions side by side (or overlaid) with ground paths: PNG, animated GIF, MP4");
-    add_picture_options(cmd, a.get());
-    cmd->add_option("--out", a->out, "output .png (one frame or a filmstrip), .gif or .mp4 (needs ffmpeg)")
-        ->required();
-    cmd->add_option("--camera", a->camera, "side, front, top or iso (default iso)");
-    cmd->add_option("--width", a->width, "pixels (default 640; of each filmstrip frame)");
-    cmd->add_option("--height", a->height, "pixels (default 480)");
-    cmd->add_option("--fps", a->fps, "frame rate of GIF/MP4 (default 25 for GIF, the motion's for MP4)");
-    cmd->add_option("--frame", a->frame, "PNG: frame index (at the first file's frame rate; default: mid-motion)");
-    cmd->add_option("--time", a->time_s, "PNG: time in seconds");
-    cmd->add_option("--filmstrip", a->filmstrip, "PNG: N frames evenly spaced over the motion, side by side");
-    cmd->add_flag("--overlay", a->overlay, "draw all motions in one panel");
-    cmd->add_flag("--follow", a->follow, "camera follows the figures (body-sized view) instead of fitting whole paths");
-    cmd->add_flag("--perspective", a->perspective, "perspective camera (default orthographic)");
-    cmd->add_flag("--no-grid", a->no_grid, "no ground grid");
-    cmd->add_flag("--no-paths", a->no_paths, "no ground paths");
-    cmd->callback([action, a] { *action = [a] { run_render(*a); }; });
-  }
-  {
-    auto a = std::make_shared<PictureArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "view", "A self-contained HTML page that plays BVH motions in the browser (three.js; works offline)");
-    add_picture_options(cmd, a.get());
-    cmd->add_option("--out", a->out, "output .html page")->required();
-    cmd->add_option("--title", a->title, "page title (default: the file names)");
-    cmd->callback([action, a] { *action = [a] { run_view(*a); }; });
-  }
-  {
-    auto a = std::make_shared<EvalArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "eval",
-        "Score a trained run on held-out data: N samples per held-out control, every metric on the samples and on "
-        "the real clips (footsteps, skating, bone lengths, diversity, prediction ADE/FDE, IS/FID); Markdown table");
-    cmd->add_option("run", a->run_dir, "run directory (mosyn train --out)")->required();
-    cmd->add_option("--data", a->data_dir, "prepared dataset directory")->required();
-    cmd->add_option("--split", a->options.split, "split of the held-out clips: val or train (default val)");
-    cmd->add_option("--n", a->options.num_samples, "samples per control (default 10)");
-    cmd->add_option("--seed", a->options.seed, "random seed (default 1)");
-    cmd->add_option("--max-clips", a->options.max_clips, "evaluate at most this many clips, evenly spread (default all)");
-    cmd->add_option("--out", a->out, "also write every value to this JSON file (e.g. RUN/metrics.json)");
-    cmd->add_option("--checkpoint", a->options.checkpoint, "checkpoint file of the run (default checkpoint.pt; e.g. best.pt)");
-    cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
-    cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
-    cmd->add_option("--warmup", a->options.warmup_s,
-                    "seconds of standing generated before each synthesised clip and dropped (default: the "
-                    "family's, 1 for moglow, 0 for rvae)")
-        ->check(CLI::Range(0.0, 60.0));
-    cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");
-    cmd->add_option("--horizon", a->options.horizon_s, "prediction: seconds predicted (default 2)");
-    cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
-                    "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
-    cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
-    cmd->add_option("--error-frames", a->options.error_frames,
-                    "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
-        ->delimiter(',')
-        ->check(CLI::Range(0, 1000000));
-    cmd->add_option("--error-fps", a->options.error_frames_fps,
-                    "frame rate the --error-frames are counted at; converted by time (default 60, the paper's)");
-    cmd->add_option("--initial-frames", a->options.initial_frames,
-                    "joint errors: real frames observed before the continuation (default 4, the paper's)");
-    cmd->add_flag("--no-joint-errors", a->no_joint_errors, "skip the joint-position errors");
-    cmd->add_flag("--paths", a->options.synthetic_paths,
-                  "also walk N samples along drawn paths (curve, zigzag, stop-and-go, straight at 0.8/1.3/1.8 m/s) and "
-                  "score them against the real clips (rows paths.*)");
-    cmd->add_flag("--foot-lock", a->options.foot_lock,
-                  "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
-    cmd->add_option("--long-horizon", a->options.long_horizon_s,
-                    "also sample this many seconds (a meandering walk, or free generation) and score stability per "
-                    "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");
-    cmd->add_option("--long-horizon-window", a->options.long_horizon_window_s,
-                    "long horizon: window length, s (default 10)");
-    cmd->add_option("--foot-joints", a->foot_joints,
-                    "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
-    cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");
-    cmd->callback([action, a] { *action = [a] { run_eval(*a); }; });
-  }
-  {
-    auto a = std::make_shared<ReportArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "report", "One self-contained HTML page about a run: config, training curves, metrics beside real data, "
-                  "sample motions in the browser viewer");
-    cmd->add_option("run", a->run_dir, "run directory")->required();
-    cmd->add_option("--metrics", a->metrics, "mosyn eval --out JSON (default: RUN/metrics.json when present)");
-    cmd->add_option("--samples", a->samples, "folder of BVH samples to show (default: sample 3 short motions)");
-    cmd->add_option("--out", a->out, "output .html page")->required();
-    cmd->add_option("--threads", a->threads, "CPU threads (default: all cores)");
-    cmd->callback([action, a] { *action = [a] { run_report(*a); }; });
-  }
+  add_metrics_command(app, action);
+  add_render_command(app, action);
+  add_view_command(app, action);
+  add_eval_command(app, action);
+  add_report_command(app, action);
   add_compare_command(app, action);
 }
 

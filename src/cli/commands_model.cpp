@@ -41,8 +41,9 @@ struct TrainArgs {
   CLI::App* cmd = nullptr;
 };
 
-// Config file keys: {"model": {...}, "train": {...}}; flags given on the command line win.
-void run_train(TrainArgs& a) {
+// The options of a train command: the resumed run's own (with --resume), then the config file
+// ({"model": {...}, "train": {...}}), then the flags given on the command line.
+nn::TrainOptions resolve_train_options(const TrainArgs& a) {
   nn::TrainOptions o;
   if (a.options.resume && a.config_file.empty()) {
     // Resuming continues the run's own schedule (steps, lr, warm-up, batch...) unless flags say otherwise.
@@ -98,7 +99,30 @@ void run_train(TrainArgs& a) {
   if (o.resume && !o.init_from.empty()) throw UsageError("--resume and --init-from exclude each other");
   if (o.steps < 1 || o.batch < 1) throw UsageError("--steps and --batch must be at least 1");
   if (!(o.lr > 0)) throw UsageError("--lr must be positive");
+  return o;
+}
 
+// One progress line: "[stage 2/3 prior 120/500  ]step 620/1500  loss ... lr ... step/s ETA ...".
+std::string format_train_progress(const nn::TrainProgress& p) {
+  char line[320];
+  std::string extra;
+  for (const auto& [k, v] : p.metrics) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " %s %.4g", k.c_str(), v);
+    extra += buf;
+  }
+  std::string stage;  // runs of several stages say which one
+  if (p.num_stages > 1)
+    stage = "stage " + std::to_string(p.stage_index + 1) + "/" + std::to_string(p.num_stages) + " " + p.stage + " " +
+            std::to_string(p.stage_step) + "/" + std::to_string(p.stage_steps) + "  ";
+  std::snprintf(line, sizeof line, "%sstep %d/%d  loss %.4f%s%s  lr %.2e  %.2f step/s  ETA %s", stage.c_str(), p.step,
+                p.total_steps, p.loss, extra.c_str(), p.has_val ? ("  val " + std::to_string(p.val_loss)).c_str() : "",
+                p.lr, p.steps_per_s, format_duration(p.eta_s).c_str());
+  return line;
+}
+
+void run_train(const TrainArgs& a) {
+  const nn::TrainOptions o = resolve_train_options(a);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   ProgressLine progress;
@@ -108,23 +132,7 @@ void run_train(TrainArgs& a) {
     std::fprintf(stderr, "%s\n", m.c_str());
   };
   callbacks.on_progress = [&](const nn::TrainProgress& p) {
-    char line[320];
-    std::string extra;
-    for (const auto& [k, v] : p.metrics) {
-      char buf[64];
-      std::snprintf(buf, sizeof buf, " %s %.4g", k.c_str(), v);
-      extra += buf;
-    }
-    // Runs of several stages say which one: "stage 2/3 prior 120/500  step ...".
-    std::string stage;
-    if (p.num_stages > 1)
-      stage = "stage " + std::to_string(p.stage_index + 1) + "/" + std::to_string(p.num_stages) + " " + p.stage + " " +
-              std::to_string(p.stage_step) + "/" + std::to_string(p.stage_steps) + "  ";
-    std::snprintf(line, sizeof line, "%sstep %d/%d  loss %.4f%s%s  lr %.2e  %.2f step/s  ETA %s", stage.c_str(),
-                  p.step, p.total_steps, p.loss, extra.c_str(),
-                  p.has_val ? ("  val " + std::to_string(p.val_loss)).c_str() : "", p.lr, p.steps_per_s,
-                  format_duration(p.eta_s).c_str());
-    progress.update(line, p.has_val || p.stage_step == p.stage_steps);  // kept: validations, stage ends
+    progress.update(format_train_progress(p), p.has_val || p.stage_step == p.stage_steps);  // kept: validations, stage ends
   };
   callbacks.should_stop = [] { return g_interrupted.load(); };
   const nn::TrainResult r = nn::train(o, callbacks);
@@ -250,9 +258,8 @@ void run_export(const std::string& run_dir, const std::string& out_dir, const st
                run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "");
 }
 
-}  // namespace
 
-void add_model_commands(CLI::App& app, Action* action) {
+void add_train_command(CLI::App& app, Action* action) {
   auto t = std::make_shared<TrainArgs>();
   CLI::App* train = app.add_subcommand("train", "Train a model family on a prepared dataset into a run directory");
   t->cmd = train;
@@ -283,7 +290,9 @@ void add_model_commands(CLI::App& app, Action* action) {
       ->check(CLI::ExistingDirectory);
   train->add_flag("--overwrite", o.overwrite, "replace an existing run in --out");
   train->callback([action, t] { *action = [t] { run_train(*t); }; });
+}
 
+void add_sample_command(CLI::App& app, Action* action) {
   auto s = std::make_shared<SampleArgs>();
   CLI::App* sample = app.add_subcommand(
       "sample", "Draw N different motions from a trained run along a path, a control file or a dataset clip");
@@ -324,7 +333,9 @@ void add_model_commands(CLI::App& app, Action* action) {
                    "motion)");
   sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
   sample->callback([action, s] { *action = [s] { run_sample(*s); }; });
+}
 
+void add_export_command(CLI::App& app, Action* action) {
   struct ExportArgs {
     std::string run_dir, out_dir, checkpoint = "best.pt";
     bool overwrite = false;
@@ -340,6 +351,14 @@ void add_model_commands(CLI::App& app, Action* action) {
   exp->add_flag("--half", e->half, "store weights as float16 (half the size; computed in float32 when loaded)");
   exp->callback(
       [action, e] { *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite, e->half); }; });
+}
+
+}  // namespace
+
+void add_model_commands(CLI::App& app, Action* action) {
+  add_train_command(app, action);
+  add_sample_command(app, action);
+  add_export_command(app, action);
 }
 
 }  // namespace mosyn::cli
