@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "core/skeleton.h"
+#include "data/dataset.h"
 #include "data/representation.h"
 
 namespace mosyn::nn {
@@ -16,6 +18,14 @@ struct ModelContext {
   int num_style = 0;        // size of the style-label vocabulary (0 = unlabelled)
   double fps = 30.0;        // frame rate of the data (frames per second)
   data::PoseForm pose_form = data::PoseForm::kRotations;  // the features' form, for form-dependent defaults
+  // The data itself, for families whose networks or losses need it (a forward-kinematics layer
+  // with the skeleton's bone offsets, losses in raw units, rotations at known feature slots).
+  // Filled by the trainer and load_run from the dataset description and statistics (config.json
+  // "dataset", stats.json), so it is not written to config.json's "context"; empty in contexts
+  // built by hand (tests, benchmarks): a family that needs it says so when it is missing.
+  Skeleton skeleton;
+  data::FeatureLayout layout;
+  data::DatasetStats stats;
 };
 
 }  // namespace mosyn::nn

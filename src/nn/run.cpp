@@ -227,6 +227,9 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   if (static_cast<int>(run.stats.pose_mean.size()) != run.context.pose_dim ||
       static_cast<int>(run.stats.control_mean.size()) != run.context.control_dim)
     throw Error(stats_path + ": statistics do not match the model's dimensions");
+  run.context.skeleton = run.dataset.skeleton;  // the data itself (ModelContext), not in "context"
+  run.context.layout = run.dataset.layout;
+  run.context.stats = run.stats;
   const torch::Device device = parse_device(options.device);
   run.kind = family_info(run.family).kind;
   run.trainable = create_trainable(run.family, run.config["model"], run.context);

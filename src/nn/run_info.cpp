@@ -24,7 +24,7 @@ ModelContext context_from_json(const nlohmann::json& j, const std::string& what)
   }
 }
 
-ModelContext context_for(const data::DatasetInfo& info) {
+ModelContext context_for(const data::DatasetInfo& info, const data::DatasetStats& stats) {
   ModelContext c;
   c.pose_dim = info.layout.pose_dim;
   c.control_dim = info.layout.control_dim;
@@ -32,6 +32,9 @@ ModelContext context_for(const data::DatasetInfo& info) {
   c.num_style = static_cast<int>(info.style_labels.size());
   c.fps = info.fps;
   c.pose_form = info.layout.form;
+  c.skeleton = info.skeleton;
+  c.layout = info.layout;
+  c.stats = stats;
   return c;
 }
 

@@ -12,7 +12,8 @@ namespace mosyn::nn {
 nlohmann::json context_to_json(const ModelContext& context);
 ModelContext context_from_json(const nlohmann::json& j, const std::string& what);
 
-// The model context a dataset implies (dims, label counts, fps, pose form).
-ModelContext context_for(const data::DatasetInfo& info);
+// The model context a dataset implies (dims, label counts, fps, pose form, skeleton, layout and
+// statistics).
+ModelContext context_for(const data::DatasetInfo& info, const data::DatasetStats& stats);
 
 }  // namespace mosyn::nn

@@ -111,7 +111,7 @@ Trainer::Trainer(const TrainOptions& opts, const data::Dataset& dataset, const T
   const bool existed = training::check_run_directory(paths_, opts.resume, opts.overwrite);
   lock_ = std::make_unique<training::RunLock>(paths_.dir);  // before touching anything
   training::clear_run(paths_, opts.resume, existed);
-  context_ = context_for(dataset.info());
+  context_ = context_for(dataset.info(), dataset.stats());
   if (context_.pose_dim <= 0) throw Error("train: the dataset has no pose dimensions");
   if (static_cast<int>(dataset.stats().pose_std.size()) != context_.pose_dim ||
       static_cast<int>(dataset.stats().control_std.size()) != context_.control_dim)
