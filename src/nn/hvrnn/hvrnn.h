@@ -1,0 +1,179 @@
+// Hierarchical deep latent variable model of human motion: Ghorbani, Wloka, Etemad, Brubaker &
+// Troje, "Probabilistic Character Motion Synthesis using a Hierarchical Deep Latent Variable
+// Model" (SCA 2020), /work/shared/papers/ghorbani2020-hierarchical-latent-variable-model.txt.
+// Family name "hvrnn". See src/nn/hvrnn/README.md for the architecture against the paper and
+// the choices made where it is silent.
+//
+//   frames x_t = [pose_t, control_t] (standardised), padded to N = ceil(T / l) words of l frames
+//   motion word   w_n = f_enc^w(x_{nl..nl+l-1})              (SL ablation: w_n = the frames)
+//   motion cell   a = f_c(labels); h_0 ~ N(mu_label, sigma_label^2) learned per label combination
+//                 q(z_n) = N(f_enc^mu(f_w(w_n), h, a), f_enc^sigma(...)^2)        (posterior)
+//                 p(z_n) = N(f_prior^mu(h, a), f_prior^sigma(h, a)^2)               (prior)
+//                 w~_n = f_dec(f_z(z_n), h, a);  h_n = GRU x 2(f_w(w_n or w~_n), f_z(z_n); h_{n-1})
+//   frames        x~ = f_dec^w(w~_n)  (rotations re-normalised by Gram-Schmidt at generation)
+// The model generates its own root motion: the control (dx, dz, dtheta) is part of every word.
+#pragma once
+
+#include <torch/nn/modules/container/modulelist.h>
+#include <torch/nn/modules/linear.h>
+#include <torch/nn/modules/rnn.h>
+
+#include <ATen/core/Generator.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nn/model.h"
+
+namespace mosyn::nn {
+
+class ClassifierImpl;
+
+// Hyper-parameters; JSON keys are the field names. Defaults follow the paper (Table 1, Sec. 3-4)
+// except where the README says otherwise.
+struct HvrnnOptions {
+  std::string preset = "full";   // "full", "SL" (no word coder), "NL" (all alpha 1), "NC" (no classifier)
+  int word_length = 3;           // l: frames per motion word
+  bool word_coder = true;        // f_enc^w / f_dec^w (false = SL: frames enter the cell directly)
+  int word_hidden = 128;         // width of the word coder's two hidden layers
+  int word_code = 96;            // D_w: motion-word size
+  int feature_hidden = 128;      // width of f_w, f_z, f_dec hidden layers (two each)
+  int feature = 96;              // output size of f_w and f_z
+  int latent = 96;               // D_z
+  int gaussian_hidden = 128;     // width of the posterior / prior MLPs
+  int gaussian_layers = 4;       // hidden layers of the posterior / prior MLPs
+  int state = 512;               // units of each GRU cell
+  int state_layers = 2;          // stacked GRU cells (state h = their concatenation)
+  int label_code = 8;            // D_a: size of the label features a = f_c(labels)
+  double label_dropout = 0.1;    // training: probability a window's label is replaced by none
+  double init_std = 0.1;         // initial spread of the learned initial-state Gaussians
+  std::string alpha = "hierarchical";  // joint weights: "hierarchical" (Eq. 23) or "uniform" (NL)
+  double alpha_floor = 0.1;      // leaf joints weigh at least this fraction of the largest alpha
+  double root_weight = 1.0;      // weight of the squared error on the non-rotation channels
+  double kl_weight = 1.0;        // lambda_KL after annealing
+  double kl_warmup = 0.1;        // fraction of training with lambda_KL = 0
+  double kl_anneal = 0.4;        // fraction over which lambda_KL then ramps linearly to kl_weight
+  double validity_weight = 0.1;  // lambda_Ang (Eq. 25 for 6D: ||A^T A - I||^2 before Gram-Schmidt)
+  std::string classifier_run;    // run directory of a trained classifier for Eq. 24 ("" = term off)
+  double classifier_weight = 0.1;       // lambda_CL at the end of its ramp
+  double classifier_ramp = 0.5;         // fraction of training over which lambda_CL grows from 0
+  double classifier_feature_weight = 1.0;  // beta of the feature-layer l2 term (CE has beta 1)
+  double word_drop = 0.3;        // final probability a teacher-forced word is replaced by the model's own
+  double word_drop_ramp = 0.8;   // fraction of training over which it grows linearly from 0
+  double spread_floor = 1e-4;    // added to every softplus spread
+
+  static HvrnnOptions from_json(const nlohmann::json& config);
+  nlohmann::json to_json() const;
+};
+
+// Where the rotations are in the pose features and how heavily each weighs (rotations form with a
+// known skeleton, layout and statistics; otherwise the loss falls back to squared error).
+struct HvrnnGeometry {
+  bool valid = false;
+  int num_joints = 0;                // J rotation slots: features [1 + 6k, 1 + 6k + 6)
+  std::vector<int> slot_joint;       // [J] skeleton joint of slot k (root joint first)
+  std::vector<int> other_dims;       // pose dims that are not rotations (height, root offsets)
+  std::vector<double> alpha;         // [J] per slot
+  torch::Tensor mean, std;           // [D] pose statistics (float)
+};
+
+namespace hvrnn {
+
+// Eq. 23: alpha_k = max over children j of (alpha_j + |bone k-j|), 0 at leaves; then every alpha is
+// raised to at least floor_fraction x the largest and all are divided by their mean (mean 1).
+// bone_lengths[j] = length of the bone from parents[j] to j (the root's is ignored).
+std::vector<double> hierarchical_alphas(const std::vector<int>& parents, const std::vector<double>& bone_lengths,
+                                        double floor_fraction);
+// Geometry of a context (HvrnnGeometry::valid false when it is not rotations with data attached).
+HvrnnGeometry geometry_for(const ModelContext& context, const HvrnnOptions& options);
+// sum_k alpha_k d(R(a_k), R(b_k)) over slots: a, b [..., J, 6] raw 6D, alpha [J] -> [...].
+torch::Tensor weighted_geodesic(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& alpha);
+// Eq. 25 for 6D: sum_k ||A_k^T A_k - I_2||_F^2 with A_k = the two 3-vectors of slot k. [..., J, 6] -> [...].
+torch::Tensor rot6d_validity(const torch::Tensor& r6);
+// KL(N(mq, sq^2) || N(mp, sp^2)) of diagonal Gaussians (spreads, not variances), summed over the last dim.
+torch::Tensor gaussian_kl(const torch::Tensor& mq, const torch::Tensor& sq, const torch::Tensor& mp,
+                          const torch::Tensor& sp);
+
+}  // namespace hvrnn
+
+// n x [Linear + ELU] then Linear with an optional final activation.
+class HvrnnMlpImpl : public torch::nn::Module {
+ public:
+  enum class Out { kNone, kElu, kSoftplus };
+  HvrnnMlpImpl(int in, int hidden, int layers, int out, Out last);
+  torch::Tensor forward(torch::Tensor x);
+  torch::nn::ModuleList layers;
+  Out last;
+};
+TORCH_MODULE(HvrnnMlp);
+
+class HvrnnImpl : public MotionModel {
+ public:
+  HvrnnImpl(const HvrnnOptions& options, const ModelContext& context);
+
+  std::string family() const override { return "hvrnn"; }
+  nlohmann::json config() const override { return options_.to_json(); }
+  const HvrnnOptions& options() const { return options_; }
+  const HvrnnGeometry& geometry() const { return geometry_; }
+
+  // Schedules: lambda_KL (warm-up, anneal, cool-down), lambda_CL (linear ramp), word drop rate.
+  void set_progress(int step, int total_steps) override;
+  double current_kl_weight() const;
+  double current_classifier_weight() const;
+  double current_word_drop() const;
+
+  // Terms per valid frame: "recon" (hierarchical geodesic + root squared error, or squared error
+  // without geometry), "kl", "validity", "classifier", "geodesic" (mean angle, rad), weights; "loss".
+  LossTerms loss(const Batch& batch) override;
+  SampleOutput sample(const SampleRequest& request) override;
+  ModelTraits traits() const override;
+
+  // One pass of the motion cell over N words. words [B, K, W] (K teacher-forced words, may be
+  // undefined for K = 0); drop [B, K] bool (a dropped word feeds the cell's own output to the
+  // state); h0 [B, S]; a [B, Da]. Draws noise from gen (nullptr = default generator).
+  struct Unroll {
+    torch::Tensor out;  // [B, N, W] reconstructed / generated words
+    torch::Tensor kl;   // [B, K] KL(q || p) of the teacher-forced words (undefined if K = 0)
+  };
+  Unroll unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n, const torch::Tensor& h0,
+                const torch::Tensor& a, double temperature, at::Generator* gen);
+
+  // frames [B, N l, F] -> words [B, N, W]; words -> frames.
+  torch::Tensor encode_words(const torch::Tensor& frames);
+  torch::Tensor decode_words(const torch::Tensor& words);
+  // Label features a [B, Da] and the initial state h_0 [B, S] (mean + temperature spread noise).
+  torch::Tensor label_code(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
+                           const torch::TensorOptions& opts);
+  torch::Tensor initial_state(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
+                              double temperature, at::Generator* gen);
+  // Standardised frames [.., F] with the rotation slots re-normalised by Gram-Schmidt.
+  torch::Tensor normalise_rotations(const torch::Tensor& frames) const;
+  int frame_dim() const { return context_.pose_dim + context_.control_dim; }
+  int word_dim() const;
+
+  HvrnnMlp word_encoder{nullptr}, word_decoder{nullptr};
+  HvrnnMlp f_w{nullptr}, f_z{nullptr}, f_dec{nullptr};
+  HvrnnMlp post_mu{nullptr}, post_sigma{nullptr}, prior_mu{nullptr}, prior_sigma{nullptr};
+  torch::nn::Linear f_c{nullptr};
+  torch::nn::ModuleList grus;
+  torch::Tensor init_mean, init_logstd;  // [(num_content + 1) (num_style + 1), S]
+
+ private:
+  struct Recon {
+    torch::Tensor recon, validity, geodesic;  // [B, T'] per frame
+  };
+  Recon reconstruction(const torch::Tensor& pred, const torch::Tensor& target);
+  torch::Tensor classifier_term(const torch::Tensor& pred, const torch::Tensor& target, const Batch& batch);
+  torch::Tensor draw(at::IntArrayRef sizes, const torch::TensorOptions& opts, at::Generator* gen) const;
+
+  HvrnnOptions options_;
+  ModelContext context_;
+  HvrnnGeometry geometry_;
+  int label_dim_ = 0;
+  double progress_ = 1.0;  // fraction of training done (1 outside training)
+  std::shared_ptr<ClassifierImpl> classifier_;  // frozen, loaded lazily; not a submodule
+};
+TORCH_MODULE(Hvrnn);
+
+}  // namespace mosyn::nn

@@ -1,0 +1,310 @@
+// The hierarchical deep latent variable model (src/nn/hvrnn): Eq. 23 weights, the geodesic,
+// validity and KL terms against hand-computed values, shapes and masking for T not a multiple of
+// the word length, training on synthetic data, seeds, labels, prefixes and the ablation presets.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "nn/hvrnn/hvrnn.h"
+#include "nn/kinematics.h"
+#include "nn_test_util.h"
+
+using namespace mosyn;
+using namespace mosyn::nn;
+
+namespace {
+
+const nlohmann::json kTiny = {{"word_hidden", 12}, {"word_code", 8}, {"feature_hidden", 12}, {"feature", 8},
+                              {"latent", 4},       {"gaussian_hidden", 12}, {"gaussian_layers", 1},
+                              {"state", 12},       {"label_code", 3}};
+
+nlohmann::json tiny(nlohmann::json extra = nlohmann::json::object()) {
+  nlohmann::json j = kTiny;
+  for (auto it = extra.begin(); it != extra.end(); ++it) j[it.key()] = it.value();
+  return j;
+}
+
+// A three-joint chain (0 -> 1 -> 2, bones 1 m and 2 m) plus a 0.5 m leaf on joint 1, in the
+// rotations form with identity statistics (standardised = raw).
+ModelContext rotations_context(int root_joint = 0) {
+  ModelContext c;
+  c.pose_form = data::PoseForm::kRotations;
+  c.skeleton.joint_names = {"a", "b", "c", "d"};
+  c.skeleton.parents = {-1, 0, 1, 1};
+  c.skeleton.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 2, 0),
+                        Eigen::Vector3d(0.5, 0, 0)};
+  c.pose_dim = 1 + 6 * 4;
+  c.control_dim = 3;
+  c.num_content = 2;
+  c.num_style = 2;
+  c.layout.form = data::PoseForm::kRotations;
+  c.layout.root_joint = root_joint;
+  c.layout.pose_dim = c.pose_dim;
+  c.stats.pose_mean.assign(c.pose_dim, 0.0f);
+  c.stats.pose_std.assign(c.pose_dim, 1.0f);
+  c.stats.control_mean.assign(3, 0.0f);
+  c.stats.control_std.assign(3, 1.0f);
+  return c;
+}
+
+ModelContext labelled_small_context() {
+  ModelContext c = nn::testing::small_context(6, 3);
+  c.num_content = 3;
+  c.num_style = 2;
+  c.pose_form = data::PoseForm::kPositions;
+  return c;
+}
+
+torch::Tensor rot_z(double angle) {
+  return torch::tensor({std::cos(angle), -std::sin(angle), 0.0, std::sin(angle), std::cos(angle), 0.0, 0.0, 0.0, 1.0},
+                       torch::kFloat64)
+      .reshape({3, 3});
+}
+
+SampleRequest request(int64_t b, int64_t t, std::uint64_t seed) {
+  SampleRequest r;
+  r.control = torch::zeros({b, t, 3});
+  r.seed = seed;
+  return r;
+}
+
+// Rotation features of a random smooth motion in the rotations context: valid 6D per joint.
+Batch rotation_batch(int64_t b, int64_t t) {
+  auto angle = torch::linspace(0, 1, t).reshape({1, t, 1}) * torch::rand({b, 1, 4}) * 2.0;  // [B, T, J]
+  auto zero = torch::zeros_like(angle), one = torch::ones_like(angle);
+  auto r6 = torch::stack({angle.cos(), angle.sin(), zero, -angle.sin(), angle.cos(), zero}, -1);  // [B, T, J, 6]
+  auto pose = torch::cat({torch::ones({b, t, 1}), r6.reshape({b, t, 24})}, -1);
+  return Batch{pose, 0.1 * torch::randn({b, t, 3}), torch::tensor({0, 1, -1, 1}).narrow(0, 0, b),
+               torch::tensor({1, 0, 1, -1}).narrow(0, 0, b)};
+}
+
+TEST(HvrnnAlpha, FollowsEq23WithAFloorAndMeanOne) {
+  // alpha_3 = alpha_2 = 0 (leaves), alpha_1 = max(0 + 2, 0 + 0.5) = 2, alpha_0 = 2 + 1 = 3;
+  // floor 0.1 x 3 = 0.3 for the leaves; mean of (3, 2, 0.3, 0.3) = 1.4.
+  const auto a = hvrnn::hierarchical_alphas({-1, 0, 1, 1}, {0.0, 1.0, 2.0, 0.5}, 0.1);
+  ASSERT_EQ(a.size(), 4u);
+  const double m = 5.6 / 4;
+  EXPECT_NEAR(a[0], 3 / m, 1e-12);
+  EXPECT_NEAR(a[1], 2 / m, 1e-12);
+  EXPECT_NEAR(a[2], 0.3 / m, 1e-12);
+  EXPECT_NEAR(a[3], 0.3 / m, 1e-12);
+  EXPECT_EQ(hvrnn::hierarchical_alphas({-1}, {0.0}, 0.1), std::vector<double>{1.0});
+}
+
+TEST(HvrnnAlpha, GeometryPutsTheRootJointFirstAndNlIsUniform) {
+  const auto g = hvrnn::geometry_for(rotations_context(1), HvrnnOptions{});
+  ASSERT_TRUE(g.valid);
+  EXPECT_EQ(g.slot_joint, (std::vector<int>{1, 0, 2, 3}));
+  const double m = 5.6 / 4;
+  EXPECT_NEAR(g.alpha[0], 2 / m, 1e-12);
+  EXPECT_NEAR(g.alpha[1], 3 / m, 1e-12);
+  HvrnnOptions nl = HvrnnOptions::from_json({{"preset", "NL"}});
+  EXPECT_EQ(hvrnn::geometry_for(rotations_context(), nl).alpha, std::vector<double>(4, 1.0));
+  EXPECT_FALSE(hvrnn::geometry_for(labelled_small_context(), HvrnnOptions{}).valid) << "positions form";
+}
+
+TEST(HvrnnLoss, WeightedGeodesicByHand) {
+  // Joint 0 rotated 0.5 rad about z, joint 1 by 1.0 rad, against identity: 2 x 0.5 + 0.5 x 1.0.
+  auto id = rot6d_from_matrix(torch::eye(3, torch::kFloat64));
+  auto a = torch::stack({rot6d_from_matrix(rot_z(0.5)), rot6d_from_matrix(rot_z(1.0))});
+  auto b = torch::stack({id, id});
+  auto alpha = torch::tensor({2.0, 0.5}, torch::kFloat64);
+  EXPECT_NEAR(hvrnn::weighted_geodesic(a, b, alpha).item<double>(), 1.5, 1e-6);
+  // Not normalised 6D: the Gram-Schmidt of (2, 0, 0, 1, 1, 0) is identity's.
+  auto scaled = torch::tensor({2.0, 0.0, 0.0, 1.0, 1.0, 0.0}, torch::kFloat64).reshape({1, 6});
+  EXPECT_NEAR(hvrnn::weighted_geodesic(scaled, id.reshape({1, 6}), alpha.narrow(0, 0, 1)).item<double>(), 0.0, 1e-3);
+}
+
+TEST(HvrnnLoss, ValidityIsTheOrthonormalityResidual) {
+  // (2,0,0 | 0,1,0): |c0|^2 - 1 = 3 -> 9. (1,0,0 | 1,1,0): |c1|^2 - 1 = 1, c0.c1 = 1 -> 1 + 2.
+  auto r = torch::tensor({{2.0, 0.0, 0.0, 0.0, 1.0, 0.0}, {1.0, 0.0, 0.0, 1.0, 1.0, 0.0}}, torch::kFloat64);
+  EXPECT_NEAR(hvrnn::rot6d_validity(r).item<double>(), 12.0, 1e-12);
+  EXPECT_NEAR(hvrnn::rot6d_validity(rot6d_from_matrix(rot_z(0.3)).unsqueeze(0)).item<double>(), 0.0, 1e-12);
+}
+
+TEST(HvrnnLoss, KlMatchesTheClosedFormByHand) {
+  // KL(N(1, 0.5^2) || N(0, 2^2)) = log(2 / 0.5) + (0.25 + 1) / 8 - 1/2; a second dim N(0,1)||N(0,1) = 0.
+  auto mq = torch::tensor({1.0, 0.0}, torch::kFloat64), sq = torch::tensor({0.5, 1.0}, torch::kFloat64);
+  auto mp = torch::tensor({0.0, 0.0}, torch::kFloat64), sp = torch::tensor({2.0, 1.0}, torch::kFloat64);
+  EXPECT_NEAR(hvrnn::gaussian_kl(mq, sq, mp, sp).item<double>(), std::log(4.0) + 1.25 / 8 - 0.5, 1e-12);
+  // Against Monte Carlo of E_q[log q - log p].
+  torch::manual_seed(0);
+  auto z = mq + sq * torch::randn({400000, 2}, torch::kFloat64);
+  auto logn = [](const torch::Tensor& x, const torch::Tensor& m, const torch::Tensor& s) {
+    return (-0.5 * ((x - m) / s).pow(2) - s.log() - 0.5 * std::log(2 * M_PI)).sum(-1);
+  };
+  EXPECT_NEAR((logn(z, mq, sq) - logn(z, mp, sp)).mean().item<double>(), std::log(4.0) + 1.25 / 8 - 0.5, 0.01);
+}
+
+TEST(HvrnnModel, ShapesAndMaskingForAnOddLength) {
+  torch::manual_seed(1);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), rotations_context());
+  m.eval();
+  Batch x = rotation_batch(3, 7);  // 7 frames: 3 words, the last with 2 padded frames
+  torch::manual_seed(2);
+  const LossTerms a = m.loss(x);
+  for (const auto& kv : a.terms) EXPECT_TRUE(std::isfinite(kv.second.item<double>())) << kv.first;
+  // The same windows padded by hand to 9 frames: same words and noise, so the same KL, but now
+  // the two padded frames count (recon x frames grows) — masking left them out.
+  Batch padded = x;
+  padded.pose = torch::cat({x.pose, x.pose.narrow(1, 6, 1).expand({3, 2, -1})}, 1);
+  padded.control = torch::cat({x.control, x.control.narrow(1, 6, 1).expand({3, 2, -1})}, 1);
+  torch::manual_seed(2);
+  const LossTerms b = m.loss(padded);
+  EXPECT_NEAR(a.terms.at("kl").item<double>() * 7, b.terms.at("kl").item<double>() * 9, 1e-4);
+  EXPECT_LT(a.terms.at("recon").item<double>() * 7, b.terms.at("recon").item<double>() * 9);
+  const SampleOutput s = m.sample(request(2, 7, 3));
+  EXPECT_EQ(s.pose.sizes(), (std::vector<int64_t>{2, 7, 25}));
+  EXPECT_EQ(s.control.sizes(), (std::vector<int64_t>{2, 7, 3}));
+  // Generated rotations are valid: Gram-Schmidt re-normalised (identity statistics: raw = standardised).
+  auto r6 = s.pose.narrow(-1, 1, 24).reshape({2, 7, 4, 6});
+  EXPECT_LT(hvrnn::rot6d_validity(r6).abs().max().item<double>(), 1e-4);
+}
+
+TEST(HvrnnModel, ATinyModelLearnsSyntheticMotion) {
+  torch::manual_seed(4);
+  auto ctx = labelled_small_context();
+  HvrnnImpl m(HvrnnOptions::from_json(tiny({{"kl_warmup", 0.0}, {"kl_anneal", 0.0}, {"word_drop", 0.0}})), ctx);
+  torch::optim::Adam opt(m.parameters(), torch::optim::AdamOptions(3e-3));
+  auto eval_loss = [&] {
+    m.eval();
+    torch::manual_seed(9);
+    Batch x = nn::testing::noisy_sinusoid_batch(8, 24, 6);
+    double v = m.loss(x).loss().item<double>();
+    m.train();
+    return v;
+  };
+  const double before = eval_loss();
+  for (int step = 1; step <= 100; ++step) {
+    m.set_progress(step, 100);
+    Batch x = nn::testing::noisy_sinusoid_batch(8, 24, 6);
+    opt.zero_grad();
+    m.loss(x).loss().backward();
+    opt.step();
+  }
+  const double after = eval_loss();
+  EXPECT_LT(after, 0.7 * before) << before << " -> " << after;
+}
+
+TEST(HvrnnModel, ARotationsModelsLossFallsToo) {
+  torch::manual_seed(5);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny({{"kl_warmup", 0.0}, {"kl_anneal", 0.0}})), rotations_context());
+  torch::optim::Adam opt(m.parameters(), torch::optim::AdamOptions(3e-3));
+  double first = 0, last = 0;
+  for (int step = 1; step <= 100; ++step) {
+    m.set_progress(step, 100);
+    Batch x = rotation_batch(4, 12);
+    opt.zero_grad();
+    auto terms = m.loss(x);
+    terms.loss().backward();
+    opt.step();
+    if (step <= 10) first += terms.terms.at("geodesic").item<double>();
+    if (step > 90) last += terms.terms.at("geodesic").item<double>();
+  }
+  EXPECT_LT(last, 0.7 * first) << "mean joint angle error " << first / 10 << " -> " << last / 10;
+}
+
+TEST(HvrnnModel, SchedulesFollowProgress) {
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), labelled_small_context());  // warm-up 0.1, anneal 0.4
+  m.set_progress(5, 100);
+  EXPECT_EQ(m.current_kl_weight(), 0.0);
+  m.set_progress(30, 100);
+  EXPECT_NEAR(m.current_kl_weight(), 0.5, 1e-12);
+  m.set_progress(80, 100);
+  EXPECT_NEAR(m.current_kl_weight(), 1.0, 1e-12);
+  EXPECT_NEAR(m.current_word_drop(), 0.3, 1e-12);
+  m.set_progress(40, 100);
+  EXPECT_NEAR(m.current_word_drop(), 0.15, 1e-12);
+  EXPECT_NEAR(m.current_classifier_weight(), 0.1 * 0.8, 1e-12);
+}
+
+TEST(HvrnnModel, SeedsAndLabelsDecideTheMotion) {
+  torch::manual_seed(6);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), labelled_small_context());
+  m.eval();
+  EXPECT_TRUE(m.traits().labels);
+  EXPECT_EQ(m.traits().control, InputUse::kGenerates);
+  SampleRequest r = request(2, 10, 7);
+  r.content = torch::tensor({0, 0});
+  r.style = torch::tensor({1, 1});
+  const SampleOutput a = m.sample(r);
+  EXPECT_TRUE(torch::equal(a.pose, m.sample(r).pose));
+  EXPECT_TRUE(torch::equal(a.control, m.sample(r).control));
+  SampleRequest other_seed = r;
+  other_seed.seed = 8;
+  EXPECT_FALSE(torch::equal(a.pose, m.sample(other_seed).pose));
+  SampleRequest other_label = r;
+  other_label.content = torch::tensor({2, 2});
+  EXPECT_FALSE(torch::equal(a.pose, m.sample(other_label).pose));
+  other_label = r;
+  other_label.style = torch::tensor({-1, -1});
+  EXPECT_FALSE(torch::equal(a.pose, m.sample(other_label).pose));
+  SampleRequest bad = r;
+  bad.content = torch::tensor({3, 0});
+  EXPECT_THROW(m.sample(bad), Error);
+}
+
+TEST(HvrnnModel, ContinuesAPrefixWordByWord) {
+  torch::manual_seed(7);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), labelled_small_context());
+  m.eval();
+  SampleRequest r = request(2, 8, 3);
+  const SampleOutput plain = m.sample(r);
+  r.prefix_pose = torch::randn({2, 7, 6});  // 2 whole words (the first frame is left out)
+  r.prefix_control = torch::randn({2, 7, 3});
+  const SampleOutput cont = m.sample(r);
+  EXPECT_EQ(cont.pose.sizes(), (std::vector<int64_t>{2, 8, 6}));
+  EXPECT_FALSE(torch::equal(cont.pose, plain.pose));
+  SampleRequest shifted = r;  // the frame before the last two words does not matter
+  shifted.prefix_pose = r.prefix_pose.clone();
+  shifted.prefix_pose.select(1, 0).fill_(5.0);
+  EXPECT_TRUE(torch::equal(m.sample(shifted).pose, cont.pose));
+  SampleRequest other = r;
+  other.prefix_pose = r.prefix_pose.clone();
+  other.prefix_pose.select(1, 6).fill_(5.0);
+  EXPECT_FALSE(torch::equal(m.sample(other).pose, cont.pose));
+  SampleRequest short_prefix = request(2, 8, 3);  // shorter than a word: nothing to continue
+  short_prefix.prefix_pose = torch::randn({2, 2, 6});
+  EXPECT_TRUE(torch::equal(m.sample(short_prefix).pose, plain.pose));
+}
+
+TEST(HvrnnPresets, AblationsBuildAndTrain) {
+  const auto sl = HvrnnOptions::from_json({{"preset", "SL"}});
+  EXPECT_FALSE(sl.word_coder);
+  EXPECT_EQ(sl.word_length, 1);
+  EXPECT_EQ(HvrnnOptions::from_json({{"preset", "NL"}}).alpha, "uniform");
+  EXPECT_EQ(HvrnnOptions::from_json({{"preset", "NC"}}).classifier_weight, 0.0);
+  EXPECT_EQ(HvrnnOptions::from_json({{"preset", "full"}}).to_json(), HvrnnOptions{}.to_json());
+  EXPECT_THROW(HvrnnOptions::from_json({{"preset", "XL"}}), Error);
+  EXPECT_THROW(HvrnnOptions::from_json({{"kl_warmup", 0.7}, {"kl_anneal", 0.5}}), Error);
+  for (const std::string p : {"full", "SL", "NL", "NC"}) {
+    torch::manual_seed(8);
+    HvrnnImpl m(HvrnnOptions::from_json(tiny({{"preset", p}})), rotations_context());
+    m.train();
+    auto terms = m.loss(rotation_batch(2, 5));
+    EXPECT_TRUE(std::isfinite(terms.loss().item<double>())) << p;
+    terms.loss().backward();
+    m.eval();
+    EXPECT_EQ(m.sample(request(1, 5, 1)).pose.sizes(), (std::vector<int64_t>{1, 5, 25})) << p;
+    EXPECT_EQ(m.word_encoder.is_empty(), p == "SL") << p;
+  }
+  // The paper's sizes: two GRU cells of 512, latent 96, words of 3 frames.
+  HvrnnImpl full(HvrnnOptions{}, rotations_context());
+  EXPECT_EQ(full.init_mean.size(1), 1024);
+  EXPECT_EQ(full.init_mean.size(0), 9) << "(content + none) x (style + none) initial states";
+}
+
+TEST(HvrnnClassifierLoss, AMissingClassifierRunIsAnErrorWhenTheTermIsUsed) {
+  HvrnnImpl m(HvrnnOptions::from_json(tiny({{"classifier_run", "/nonexistent/run"}})), labelled_small_context());
+  m.train();
+  m.set_progress(100, 100);
+  Batch x = nn::testing::noisy_sinusoid_batch(2, 6, 6);
+  EXPECT_THROW(m.loss(x), Error);
+  HvrnnImpl nc(HvrnnOptions::from_json(tiny({{"classifier_run", "/nonexistent/run"}, {"preset", "NC"}})),
+               labelled_small_context());
+  EXPECT_NO_THROW(nc.loss(x)) << "NC never loads it";
+}
+
+}  // namespace
