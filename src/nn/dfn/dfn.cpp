@@ -1,0 +1,352 @@
+// Dynamic Future Net (dfn.h): the model, its three training objectives and stages, and
+// generation (posterior over the prefix, then priors), offline and frame by frame.
+#include "nn/dfn/dfn.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <torch/utils.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "nn/config_json.h"
+
+namespace mosyn::nn {
+
+DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
+    : MotionModel("Dfn"), options_(options), context_(context) {
+  if (context.pose_dim <= 0 || context.control_dim <= 0) throw Error("dfn: the model context has no dimensions");
+  ae = register_module("ae", DfnAutoencoder(options, context));
+  future = register_module("future", DfnFuture(options));
+  dyn = register_module("dyn", DfnDynamics(options));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stages
+
+std::vector<TrainingStage> DfnImpl::training_stages(const TrainStageDefaults& defaults) const {
+  std::vector<int> steps = options_.stage_steps;
+  if (steps.empty()) {
+    const auto& f = options_.stage_fractions;
+    const double sum = f[0] + f[1] + f[2];
+    const int n = std::max(3, defaults.steps);
+    const int a = std::max(1, static_cast<int>(std::lround(n * f[0] / sum)));
+    const int b = std::max(1, static_cast<int>(std::lround(n * f[1] / sum)));
+    steps = {a, b, std::max(1, n - a - b)};
+  }
+  const char* names[] = {"autoencoder", "future", "dynamics"};
+  const std::vector<std::vector<std::string>> trained = {{"ae"}, {"future"}, {"dyn"}};
+  const std::vector<std::vector<std::string>> frozen = {{}, {"ae"}, {"ae", "future"}};
+  std::vector<TrainingStage> stages;
+  for (int i = 0; i < 3; ++i) {
+    TrainingStage s;
+    s.name = names[i];
+    s.steps = steps[i];
+    s.trained = trained[i];
+    s.frozen = frozen[i];
+    s.optimizer.lr = defaults.lr;
+    // The run's Noam schedule, its warm-up scaled to the stage's share of the run.
+    s.schedule.kind = ScheduleSpec::Kind::kNoam;
+    s.schedule.warmup = static_cast<int>(std::lround(static_cast<double>(defaults.warmup) * steps[i] /
+                                                     std::max(1, defaults.steps)));
+    stages.push_back(s);
+  }
+  return stages;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Losses
+
+void DfnImpl::check_batch(const Batch& batch, int64_t min_frames) const {
+  const auto& p = batch.pose;
+  const auto& c = batch.control;
+  if (!p.defined() || p.dim() != 3 || p.size(2) != context_.pose_dim)
+    throw Error("dfn: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
+  if (!c.defined() || c.dim() != 3 || c.size(0) != p.size(0) || c.size(1) != p.size(1) || c.size(2) != context_.control_dim)
+    throw Error("dfn: control must be [B, T, " + std::to_string(context_.control_dim) + "] matching pose");
+  if (p.size(1) < min_frames)
+    throw Error("dfn: windows of " + std::to_string(p.size(1)) + " frames are too short for horizon " +
+                std::to_string(options_.horizon) + " (need at least " + std::to_string(min_frames) + ")");
+}
+
+torch::Tensor DfnImpl::codes(const torch::Tensor& pose, const torch::Tensor& control) {
+  return ae->encode(torch::cat({pose, control}, -1));
+}
+
+torch::Tensor DfnImpl::future_windows(const torch::Tensor& x) const {
+  const int64_t h = options_.horizon, t = x.size(1);
+  // unfold over time: [B, T-H, K, H] -> [B, T-H, H, K]
+  return x.narrow(1, 1, t - 1).unfold(1, h, 1).permute({0, 1, 3, 2});
+}
+
+LossTerms DfnImpl::autoencoder_loss(const Batch& batch) {
+  check_batch(batch, 1);
+  auto z = codes(batch.pose, batch.control);
+  auto d = ae->decode(z);
+  // Eq. 2 in the data's units where the skeleton is known (standardising would let the near-constant
+  // 6D components, whose standard deviation is the floor, dominate); control standardised.
+  auto pose_mse = (ae->raw_pose(d.pose) - ae->raw_pose(batch.pose)).pow(2).mean();
+  auto vel_mse = (d.control - batch.control).pow(2).mean();
+  auto total = options_.pose_weight * pose_mse + options_.velocity_weight * vel_mse;
+  LossTerms out;
+  if (ae->head() == DfnPoseHead::kRotationsFk) {
+    auto target = ae->feature_positions(batch.pose).detach();
+    auto fk = (d.positions - target).pow(2).mean();
+    total = total + options_.fk_weight * fk;
+    out.terms["ae_fk"] = fk.detach();
+  }
+  out.terms["loss"] = total;
+  out.terms["ae_pose"] = pose_mse.detach();
+  out.terms["ae_velocity"] = vel_mse.detach();
+  return out;
+}
+
+LossTerms DfnImpl::future_loss(const Batch& batch) {
+  check_batch(batch, options_.horizon + 1);
+  const int64_t h = options_.horizon, k = options_.code;
+  auto z = codes(batch.pose, batch.control).detach();
+  auto windows = future_windows(z).reshape({-1, h, k});  // [N, H, code]
+  auto rec = future->reconstruct(future->embed(windows), h);
+  auto rec_loss = (rec - windows).pow(2).mean();
+  // L_smooth: velocities (frame differences) of the decoded reconstruction against the data's.
+  auto x = torch::cat({ae->raw_pose(batch.pose), batch.control}, -1);
+  auto x_win = future_windows(x).reshape({-1, h, x.size(-1)});
+  auto dec = ae->decode(rec);
+  auto x_hat = torch::cat({ae->raw_pose(dec.pose), dec.control}, -1);
+  torch::Tensor smooth = torch::zeros({}, rec_loss.options());
+  if (h > 1) {
+    auto vel = [h](const torch::Tensor& a) { return a.narrow(1, 1, h - 1) - a.narrow(1, 0, h - 1); };
+    smooth = (vel(x_hat) - vel(x_win)).pow(2).mean();
+  }
+  LossTerms out;
+  out.terms["loss"] = rec_loss + options_.smooth_weight * smooth;
+  out.terms["future_rec"] = rec_loss.detach();
+  out.terms["future_smooth"] = smooth.detach();
+  return out;
+}
+
+namespace {
+
+torch::Tensor reparameterise(const DfnDynamicsImpl::Gaussian& g) {
+  auto eps = torch::randn(g.mean.sizes(), torch::TensorOptions().dtype(g.mean.scalar_type())).to(g.mean.device());
+  return g.mean + torch::exp(0.5 * g.logvar) * eps;
+}
+
+}  // namespace
+
+LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
+  check_batch(batch, options_.horizon + 1);
+  const int64_t h = options_.horizon, b = batch.pose.size(0), l = batch.pose.size(1) - h;
+  auto z = codes(batch.pose, batch.control).detach();                                         // [B, T, K]
+  auto m = future->embed(future_windows(z).reshape({-1, h, options_.code})).reshape({b, l, -1}).detach();
+  auto opts = z.options();
+  std::pair<torch::Tensor, torch::Tensor> state{torch::zeros({b, options_.state}, opts),
+                                                torch::zeros({b, options_.state}, opts)};
+  auto nll_z = torch::zeros({b}, opts), nll_m = nll_z, kl_s = nll_z, kl_f = nll_z;
+  std::vector<torch::Tensor> hs, ss, ps_mean, ps_logvar;
+  for (int64_t t = 0; t < l; ++t) {
+    const auto h_t = state.second;
+    auto z_t = z.select(1, t), m_t = m.select(1, t);
+    auto pf = dyn->prior_f(h_t), qf = dyn->posterior_f(h_t, m_t);
+    auto f = reparameterise(qf);
+    auto ps = dyn->prior_s(m_t, h_t), qs = dyn->posterior_s(h_t, z_t, m_t);
+    auto s = reparameterise(qs);
+    // Unit-variance Gaussian likelihoods of the code and the future summary.
+    nll_z = nll_z + 0.5 * ((dyn->decode_z(s, h_t) - z_t).pow(2).sum(-1) + options_.code * kLog2Pi);
+    nll_m = nll_m + 0.5 * ((dyn->decode_m(f, h_t) - m_t).pow(2).sum(-1) + options_.future * kLog2Pi);
+    kl_s = kl_s + dfn_kl_diag(qs.mean, qs.logvar, ps.mean, ps.logvar);
+    kl_f = kl_f + dfn_kl_diag(qf.mean, qf.logvar, pf.mean, pf.logvar);
+    hs.push_back(h_t);
+    ss.push_back(s);
+    ps_mean.push_back(ps.mean);
+    ps_logvar.push_back(ps.logvar);
+    state = dyn->step(state, s, f);
+  }
+  auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts);
+  const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
+  if (max_delta >= 1) {
+    // One time difference per batch, uniform in 1..td_max (default CPU generator); every pair
+    // (t1, t1 + delta) of the window (Sec. 5.5, Eqs. 12-14).
+    const int64_t delta = torch::randint(1, max_delta + 1, {1}, torch::kInt64).item<int64_t>();
+    const int64_t n = l - delta;
+    auto H = torch::stack(hs, 1), S = torch::stack(ss, 1);
+    auto PM = torch::stack(ps_mean, 1), PL = torch::stack(ps_logvar, 1);
+    auto h1 = H.narrow(1, 0, n), h2 = H.narrow(1, delta, n), s2 = S.narrow(1, delta, n);
+    auto q = DfnDynamicsImpl::split(dyn->td_q_net->forward(torch::cat({s2, h1, h2}, -1)));
+    auto s1 = reparameterise(q);
+    td_kl = dfn_kl_diag(q.mean, q.logvar, PM.narrow(1, 0, n), PL.narrow(1, 0, n)).mean();
+    auto dt = torch::full({b, n, 1}, static_cast<double>(delta) / options_.td_max, opts);
+    auto p = DfnDynamicsImpl::split(dyn->td_p_net->forward(torch::cat({s1, dt}, -1)));
+    td_nll = -dfn_log_normal(s2, p.mean, p.logvar).mean();
+  }
+  const double per = 1.0 / static_cast<double>(l);
+  auto nz = (nll_z * per).mean(), nm = (nll_m * per).mean(), ks = (kl_s * per).mean(), kf = (kl_f * per).mean();
+  LossTerms out;
+  out.terms["loss"] = nz + options_.m_weight * nm + options_.kl_weight * (ks + kf) + options_.td_weight * (td_kl + td_nll);
+  out.terms["nll_z"] = nz.detach();
+  out.terms["nll_m"] = nm.detach();
+  out.terms["kl_s"] = ks.detach();
+  out.terms["kl_f"] = kf.detach();
+  out.terms["td_kl"] = td_kl.detach();
+  out.terms["td_nll"] = td_nll.detach();
+  return out;
+}
+
+LossTerms DfnImpl::loss(const Batch& batch) {
+  switch (stage_) {
+    case 0:
+      return autoencoder_loss(batch);
+    case 1:
+      return future_loss(batch);
+    case 2:
+      return dynamics_loss(batch);
+    default:
+      break;
+  }
+  LossTerms all;
+  torch::Tensor total;
+  for (const LossTerms& part : {autoencoder_loss(batch), future_loss(batch), dynamics_loss(batch)})
+    for (const auto& [k, v] : part.terms) {
+      if (k == "loss")
+        total = total.defined() ? total + v : v;
+      else
+        all.terms[k] = v;
+    }
+  all.terms["loss"] = total;
+  return all;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Generation
+
+ModelTraits DfnImpl::traits() const {
+  ModelTraits t;
+  t.control = InputUse::kGenerates;
+  t.labels = false;
+  t.prefix = true;
+  t.streaming = true;  // sample() is begin_stream + step_stream: equal by construction
+  return t;
+}
+
+namespace {
+
+struct DfnStream : StreamState {
+  std::pair<torch::Tensor, torch::Tensor> state;  // the two GRU layers' hidden states [B, state]
+  at::Generator gen;
+  double temperature = 1.0;
+};
+
+torch::Tensor draw(const DfnDynamicsImpl::Gaussian& g, DfnStream& st) {
+  auto cpu = torch::TensorOptions().dtype(g.mean.scalar_type());
+  auto eps = torch::randn(g.mean.sizes(), st.gen, cpu).to(g.mean.device());
+  return g.mean + st.temperature * torch::exp(0.5 * g.logvar) * eps;
+}
+
+}  // namespace
+
+std::unique_ptr<StreamState> DfnImpl::begin_stream(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  const int64_t d = context_.pose_dim, c = context_.control_dim, h = options_.horizon;
+  auto opts = dyn->gru1->weight_ih.options();
+  const bool has_prefix = request.prefix_pose.defined() && request.prefix_pose.size(1) > 0;
+  int64_t b = request.batch;
+  if (has_prefix) b = request.prefix_pose.size(0);
+  else if (request.control.defined() && request.control.dim() == 3) b = request.control.size(0);
+  if (b <= 0) throw Error("dfn: begin_stream needs a batch size (prefix_pose, control or batch)");
+  auto st = std::make_unique<DfnStream>();
+  st->gen = at::detail::createCPUGenerator(request.seed);
+  st->temperature = request.temperature;
+  st->state = {torch::zeros({b, options_.state}, opts), torch::zeros({b, options_.state}, opts)};
+  if (!has_prefix) return st;
+  const auto& pre = request.prefix_pose;
+  if (pre.dim() != 3 || pre.size(2) != d)
+    throw Error("sample request: prefix_pose must be [B, P, " + std::to_string(d) + "]");
+  const int64_t p = pre.size(1);
+  torch::Tensor pre_ctrl = torch::zeros({b, p, c}, opts);
+  if (request.prefix_control.defined()) {
+    const auto& pc = request.prefix_control;
+    if (pc.dim() != 3 || pc.size(0) != b || pc.size(1) != p || pc.size(2) != c)
+      throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
+    pre_ctrl = pc.to(opts);
+  }
+  auto z = codes(pre.to(opts), pre_ctrl);  // [B, P, code]
+  // Posterior over the prefix: frames whose next H codes are observed take q(f | h, m) with m
+  // their embedding; the last H frames draw f from the prior and decode m from it. s always
+  // comes from q(s | h, z, m), z being observed.
+  for (int64_t t = 0; t < p; ++t) {
+    const auto h_t = st->state.second;
+    torch::Tensor f, m;
+    if (t + h < p) {
+      m = future->embed(z.narrow(1, t + 1, h));
+      f = draw(dyn->posterior_f(h_t, m), *st);
+    } else {
+      f = draw(dyn->prior_f(h_t), *st);
+      m = dyn->decode_m(f, h_t);
+    }
+    auto s = draw(dyn->posterior_s(h_t, z.select(1, t), m), *st);
+    st->state = dyn->step(st->state, s, f);
+  }
+  return st;
+}
+
+StreamFrame DfnImpl::step_stream(StreamState& state, const torch::Tensor& /*control: generated*/) {
+  torch::NoGradGuard no_grad;
+  auto* st = dynamic_cast<DfnStream*>(&state);
+  if (!st) throw Error("dfn: step_stream needs a stream begun by a dfn model");
+  const auto h_t = st->state.second;
+  auto f = draw(dyn->prior_f(h_t), *st);
+  auto m = dyn->decode_m(f, h_t);
+  auto s = draw(dyn->prior_s(m, h_t), *st);
+  auto z = dyn->decode_z(s, h_t);
+  auto x = ae->decode(z);
+  st->state = dyn->step(st->state, s, f);
+  return {x.pose, x.control};
+}
+
+SampleOutput DfnImpl::sample(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  const int64_t c = context_.control_dim;
+  if (!request.control.defined() || request.control.dim() != 3 || request.control.size(2) != c)
+    throw Error("sample request: control must be [B, T, " + std::to_string(c) + "] (only its shape is read)");
+  const int64_t b = request.control.size(0), t = request.control.size(1);
+  if (request.prefix_pose.defined() && request.prefix_pose.size(1) > 0 && request.prefix_pose.size(0) != b)
+    throw Error("sample request: prefix_pose must have " + std::to_string(b) + " rows");
+  auto opts = dyn->gru1->weight_ih.options();
+  if (t == 0) return {torch::zeros({b, 0, context_.pose_dim}, opts), torch::zeros({b, 0, c}, opts)};
+  auto stream = begin_stream(request);
+  std::vector<torch::Tensor> poses, controls;
+  poses.reserve(t);
+  controls.reserve(t);
+  for (int64_t i = 0; i < t; ++i) {
+    auto f = step_stream(*stream, {});
+    poses.push_back(f.pose);
+    controls.push_back(f.control);
+  }
+  return {torch::stack(poses, 1), torch::stack(controls, 1)};
+}
+
+}  // namespace mosyn::nn
+
+// Inside the macro, names resolve in mosyn::nn.
+MOSYN_REGISTER_FAMILY(dfn, FamilyInfo{"dfn", FamilyKind::kMotion,
+                                      "Dynamic Future Net: future-guided stochastic latent RNN (Chen et al. 2020)",
+                                      [](const nlohmann::json& config, const ModelContext& context) {
+                                        return std::make_shared<DfnImpl>(DfnOptions::from_json(config), context);
+                                      },
+                                      {{"code", 6},
+                                       {"pose_code", 4},
+                                       {"ae_hidden", 8},
+                                       {"horizon", 3},
+                                       {"future_hidden", 8},
+                                       {"future", 4},
+                                       {"state", 8},
+                                       {"future_latent", 3},
+                                       {"current_latent", 3},
+                                       {"prior_f_hidden", 8},
+                                       {"post_f_hidden", 8},
+                                       {"m_hidden", 8},
+                                       {"prior_s_hidden", 8},
+                                       {"post_s_hidden", 8},
+                                       {"z_hidden", 8},
+                                       {"td_hidden", 8},
+                                       {"td_max", 2}}})

@@ -1,0 +1,207 @@
+// Dynamic Future Net: Chen, Liu, Ren, Lai, Wang & Yang, "Dynamic Future Net: Diversified Human
+// Motion Generation" (ACM MM 2020), /work/shared/papers/chen2020-dynamic-future-net.txt.
+// Family name "dfn". See src/nn/dfn/README.md for the description against the paper and every
+// choice made where it is silent.
+//
+//   X_t = [pose_t (D), control_t (C = dx, dz, dtheta)]      standardised, one frame
+//   (1) autoencoder "ae" (Sec. 5.1, Eq. 2): z_t = Enc(X_t) (code 16 = pose part + velocity part);
+//       pose decoder -> 6D joint rotations -> forward kinematics with the skeleton's bone offsets
+//       -> pose features (bone lengths hold by construction); velocity decoder -> control.
+//   (2) future embedding "future" (Sec. 5.2, Eq. 3): GRU encoder over z_{t+1..t+H} -> m_t;
+//       GRU decoder m_t -> z_hat_{t+1..t+H}; trained on the frozen autoencoder.
+//   (3) dynamics "dyn" (Sec. 5.3-5.6, Eq. 15): h_{t+1} = GRU2(h_t, [s_t, f_t]) (two stacked
+//       layers); p(f_t | h_t), q(f_t | h_t, m_t); p(m_t | f_t, h_t); p(s_t | m_t, h_t),
+//       q(s_t | h_t, z_t, m_t); z_t = MLP(s_t, h_t); TD-VAE term on pairs (t1, t2).
+// Trained in three stages through the shared trainer (training_stages / begin_stage).
+// All tensors standardised (nn/model.h conventions).
+#pragma once
+
+#include <torch/nn/modules/container/sequential.h>
+#include <torch/nn/modules/linear.h>
+#include <torch/nn/modules/rnn.h>
+
+#include <ATen/core/Generator.h>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "nn/model.h"
+
+namespace mosyn::nn {
+
+// Hyper-parameters; JSON keys are the field names. Paper values where given (Sec. 5), choices
+// documented in the README otherwise.
+struct DfnOptions {
+  int code = 16;            // z: pose-velocity code size (Sec. 6.3: 16)
+  int pose_code = 12;       // of which the pose part; the velocity part is code - pose_code
+  int ae_hidden = 256;      // width of the autoencoder's MLPs (two hidden layers each)
+  bool fk = true;           // decode poses through FK when the context carries a skeleton
+  int horizon = 10;         // H: frames of the future the embedding summarises
+  int future_hidden = 128;  // GRU width of the future seq2seq network
+  int future = 32;          // m: future embedding size
+  int state = 128;          // h: deterministic state (two stacked GRU layers, Sec. 5.3: 128)
+  int future_latent = 32;   // f: future latent size
+  int current_latent = 32;  // s: current latent size
+  int prior_f_hidden = 256;  // p(f | h): 3 layers (Sec. 5.3: 256)
+  int post_f_hidden = 512;   // q(f | h, m): 2 hidden layers (Sec. 5.4: 512)
+  int m_hidden = 128;        // p(m | f, h): 4 layers (Sec. 5.3: 128)
+  int prior_s_hidden = 128;  // p(s | m, h): 2 layers (Sec. 5.3: 128)
+  int post_s_hidden = 32;    // q(s | h, z, m): 2 hidden layers (Sec. 5.4: 32)
+  int z_hidden = 128;        // z = MLP(s, h): 3 hidden layers (Sec. 5.3: 128)
+  int td_hidden = 32;        // TD-VAE networks (Sec. 5.5: 32)
+  int td_max = 4;            // largest time difference t2 - t1 of the TD term
+  double leaky_slope = 0.01;
+  // Loss weights.
+  double pose_weight = 1.0;      // Eq. 2, pose features
+  double velocity_weight = 1.0;  // Eq. 2, root velocity (control)
+  double fk_weight = 1.0;        // Eq. 2, joint positions (metres) after FK (rotation features)
+  double smooth_weight = 1.0;    // Eq. 3, L_smooth
+  double kl_weight = 1.0;        // KL terms of Eq. 15
+  double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
+  double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
+  // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when
+  // stage_steps is not empty, its three absolute step counts.
+  std::vector<double> stage_fractions = {0.3, 0.2, 0.5};
+  std::vector<int> stage_steps = {};
+
+  int velocity_code() const { return code - pose_code; }
+  static DfnOptions from_json(const nlohmann::json& config);
+  nlohmann::json to_json() const;
+};
+
+// MLP: n_hidden Linear + LeakyReLU layers of width `hidden`, then a Linear to `out`.
+torch::nn::Sequential dfn_mlp(int in, int hidden, int n_hidden, int out, double slope);
+
+// Closed-form KL(N(qm, exp(qlv)) || N(pm, exp(plv))) of diagonal Gaussians, summed over the last
+// dimension.
+torch::Tensor dfn_kl_diag(const torch::Tensor& qm, const torch::Tensor& qlv, const torch::Tensor& pm,
+                          const torch::Tensor& plv);
+// log N(x; mean, exp(logvar)) summed over the last dimension.
+torch::Tensor dfn_log_normal(const torch::Tensor& x, const torch::Tensor& mean, const torch::Tensor& logvar);
+
+// How the autoencoder's pose decoder makes pose features.
+enum class DfnPoseHead {
+  kPlain,         // an MLP straight to the features (no skeleton in the context)
+  kRotationsFk,   // 6D per joint re-orthogonalised; FK positions for Eq. 2's position term
+  kPositionsFk,   // 6D per joint + root translation -> FK with bone offsets -> joint positions
+};
+
+// (1) The pose-velocity autoencoder with its FK layer.
+class DfnAutoencoderImpl : public torch::nn::Module {
+ public:
+  DfnAutoencoderImpl(const DfnOptions& o, const ModelContext& context);
+  // X [..., D + C] -> z [..., code]
+  torch::Tensor encode(const torch::Tensor& x);
+  struct Decoded {
+    torch::Tensor pose;       // [..., D] standardised features
+    torch::Tensor control;    // [..., C] standardised
+    torch::Tensor positions;  // [..., J, 3] metres (FK heads only), relative to the trajectory joint
+  };
+  Decoded decode(const torch::Tensor& z);
+  // Joint positions [..., J, 3] (metres) of standardised pose features (FK heads only): for the
+  // rotation form FK of the features' rotations relative to the trajectory joint, for the
+  // position form the features themselves.
+  torch::Tensor feature_positions(const torch::Tensor& pose);
+  // Pose features in the data's own units (FK heads: metres and 6D components, as Eq. 2 measures
+  // them; the plain head: unchanged, standardised).
+  torch::Tensor raw_pose(const torch::Tensor& pose) const;
+  // 6D [..., J, 6] + root translation [..., 3] (metres) -> positions [..., J, 3] by FK.
+  torch::Tensor fk(const torch::Tensor& rot6d, const torch::Tensor& root) const;
+  DfnPoseHead head() const { return head_; }
+
+  torch::nn::Sequential encoder{nullptr}, pose_decoder{nullptr}, velocity_decoder{nullptr};
+  torch::Tensor pose_mean, pose_std, offsets;  // buffers (FK heads only): stats, offsets [J, 3] m
+
+ private:
+  torch::Tensor rotations_from_features(const torch::Tensor& pose_std_features);  // [..., J, 3, 3]
+  DfnPoseHead head_ = DfnPoseHead::kPlain;
+  int pose_dim_, control_dim_, pose_code_, joints_ = 0, root_joint_ = 0;
+  bool smoothed_ = false;
+  std::vector<int> parents_, rot_slot_;  // rot_slot_[j]: first feature of joint j's 6D (-1 none)
+  std::vector<int> ancestors_of_root_;
+};
+TORCH_MODULE(DfnAutoencoder);
+
+// (2) The future-embedding sequence-to-sequence network.
+class DfnFutureImpl : public torch::nn::Module {
+ public:
+  DfnFutureImpl(const DfnOptions& o);
+  torch::Tensor embed(const torch::Tensor& codes);               // [N, H, code] -> m [N, future]
+  torch::Tensor reconstruct(const torch::Tensor& m, int64_t h);  // m [N, future] -> [N, H, code]
+  torch::nn::GRU encoder{nullptr}, decoder{nullptr};
+  torch::nn::Linear to_m{nullptr}, from_m{nullptr}, out{nullptr};
+};
+TORCH_MODULE(DfnFuture);
+
+// (3) The future-guided stochastic latent RNN.
+class DfnDynamicsImpl : public torch::nn::Module {
+ public:
+  DfnDynamicsImpl(const DfnOptions& o);
+  struct Gaussian {
+    torch::Tensor mean, logvar;
+  };
+  static Gaussian split(const torch::Tensor& x);
+  Gaussian prior_f(const torch::Tensor& h);
+  Gaussian posterior_f(const torch::Tensor& h, const torch::Tensor& m);
+  torch::Tensor decode_m(const torch::Tensor& f, const torch::Tensor& h);
+  Gaussian prior_s(const torch::Tensor& m, const torch::Tensor& h);
+  Gaussian posterior_s(const torch::Tensor& h, const torch::Tensor& z, const torch::Tensor& m);
+  torch::Tensor decode_z(const torch::Tensor& s, const torch::Tensor& h);
+  // One GRU step: state = {h1, h2} -> new state; h_t is the top layer h2.
+  std::pair<torch::Tensor, torch::Tensor> step(const std::pair<torch::Tensor, torch::Tensor>& state,
+                                               const torch::Tensor& s, const torch::Tensor& f);
+  torch::nn::GRUCell gru1{nullptr}, gru2{nullptr};
+  torch::nn::Sequential prior_f_net{nullptr}, post_f_net{nullptr}, m_net{nullptr}, prior_s_net{nullptr},
+      post_s_net{nullptr}, z_net{nullptr}, td_q_net{nullptr}, td_p_net{nullptr};
+};
+TORCH_MODULE(DfnDynamics);
+
+class DfnImpl : public MotionModel {
+ public:
+  DfnImpl(const DfnOptions& options, const ModelContext& context);
+
+  std::string family() const override { return "dfn"; }
+  nlohmann::json config() const override { return options_.to_json(); }
+  const DfnOptions& options() const { return options_; }
+
+  // Three stages: "autoencoder" (trains ae), "future" (trains future, ae frozen), "dynamics"
+  // (trains dyn, ae and future frozen).
+  std::vector<TrainingStage> training_stages(const TrainStageDefaults& defaults) const override;
+  void begin_stage(int index, const TrainingStage& stage) override { stage_ = index; }
+  int stage() const { return stage_; }
+
+  // The current stage's objective (per frame, standardised space); before any stage (-1) the sum
+  // of all three. Terms: "loss", "ae_pose", "ae_velocity", "ae_fk", "future_rec", "future_smooth",
+  // "nll_z", "nll_m", "kl_s", "kl_f", "td_kl", "td_nll" as the stage computes them.
+  LossTerms loss(const Batch& batch) override;
+  LossTerms autoencoder_loss(const Batch& batch);
+  LossTerms future_loss(const Batch& batch);
+  LossTerms dynamics_loss(const Batch& batch);
+
+  ModelTraits traits() const override;
+  // Posterior over the prefix (when given), then T frames from the priors; returns poses and the
+  // generated root motion. Equals begin_stream + T step_stream calls.
+  SampleOutput sample(const SampleRequest& request) override;
+  std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
+  StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
+
+  // Codes of a pose/control sequence [B, T, D], [B, T, C] -> [B, T, code].
+  torch::Tensor codes(const torch::Tensor& pose, const torch::Tensor& control);
+  // Future windows z_{t+1..t+H} of codes [B, T, K] for t = 0..T-H-1 -> [B, T-H, H, K].
+  torch::Tensor future_windows(const torch::Tensor& x) const;
+
+  DfnAutoencoder ae{nullptr};
+  DfnFuture future{nullptr};
+  DfnDynamics dyn{nullptr};
+
+ private:
+  void check_batch(const Batch& batch, int64_t min_frames) const;
+  int stage_ = -1;
+  DfnOptions options_;
+  ModelContext context_;
+};
+TORCH_MODULE(Dfn);
+
+}  // namespace mosyn::nn

@@ -1,0 +1,354 @@
+// Dynamic Future Net (nn/dfn): the FK layer against core FK, shapes, the KL terms against their
+// closed form by hand, each stage's loss falling, seeds, the stages freezing what they should and
+// a run interrupted in its second stage resuming exactly.
+#include <gtest/gtest.h>
+#include <torch/optim/adam.h>
+#include <torch/torch.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <random>
+
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/kinematics.h"
+#include "core/rotation.h"
+#include "data/representation.h"
+#include "nn/checkpoint.h"
+#include "nn/dfn/dfn.h"
+#include "nn/kinematics.h"
+#include "nn/registry.h"
+#include "nn/training/train.h"
+#include "nn_test_util.h"
+
+using namespace mosyn;
+using namespace mosyn::nn;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A five-joint skeleton in centimetres: a spine of two bones and a leg of two.
+Skeleton test_skeleton() {
+  Skeleton s;
+  s.joint_names = {"Hips", "Spine", "Head", "Leg", "Foot"};
+  s.parents = {-1, 0, 1, 0, 3};
+  s.offsets = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 10, 0), Eigen::Vector3d(0, 12, 2),
+               Eigen::Vector3d(5, 0, 0), Eigen::Vector3d(0, -20, 1)};
+  s.meters_per_unit = 0.01;
+  return s;
+}
+
+ModelContext skeleton_context(data::PoseForm form) {
+  ModelContext c;
+  c.skeleton = test_skeleton();
+  c.pose_form = form;
+  c.layout = data::make_layout(c.skeleton, form, 0, Eigen::Vector3d(0, 0, 1));
+  c.pose_dim = c.layout.pose_dim;
+  c.control_dim = 3;
+  c.fps = 30;
+  c.stats.pose_mean.assign(c.pose_dim, 0.0f);
+  c.stats.pose_std.assign(c.pose_dim, 1.0f);
+  c.stats.control_mean.assign(3, 0.0f);
+  c.stats.control_std.assign(3, 1.0f);
+  return c;
+}
+
+nlohmann::json tiny() { return family_info("dfn").tiny_config; }
+
+std::shared_ptr<DfnImpl> make(const ModelContext& c, nlohmann::json config = tiny()) {
+  torch::manual_seed(3);
+  return std::make_shared<DfnImpl>(DfnOptions::from_json(config), c);
+}
+
+Motion random_motion(const Skeleton& s, int frames, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0, 1);
+  Motion m = Motion::rest(s, frames, 30);
+  for (int t = 0; t < frames; ++t)
+    for (int j = 0; j < s.num_joints(); ++j)
+      m.rotation(t, j) = Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized();
+  for (int t = 0; t < frames; ++t) m.translation(t, 0) = Eigen::Vector3d(n(rng) * 30, 90 + n(rng), n(rng) * 30);
+  return m;
+}
+
+double dist(const torch::Tensor& p, int a, int b) { return (p[a] - p[b]).norm().item<double>(); }
+
+}  // namespace
+
+TEST(Dfn, FkLayerMatchesCoreForwardKinematics) {
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  auto m = make(c);
+  ASSERT_EQ(m->ae->head(), DfnPoseHead::kPositionsFk);
+  const Skeleton s = c.skeleton;
+  const Motion motion = random_motion(s, 4, 1);
+  const WorldPoses ref = forward_kinematics(s, motion);
+  const int j = s.num_joints();
+  auto r6 = torch::zeros({4, j, 6}), root = torch::zeros({4, 3});
+  for (int t = 0; t < 4; ++t) {
+    for (int k = 0; k < j; ++k) {
+      const auto v = rot6d_from_quat(motion.rotation(t, k));
+      for (int e = 0; e < 6; ++e) r6[t][k][e] = v[e];
+    }
+    for (int e = 0; e < 3; ++e) root[t][e] = motion.translation(t, 0)[e] * s.meters_per_unit;
+  }
+  auto pos = m->ae->fk(r6, root);  // metres
+  ASSERT_EQ(pos.sizes(), (std::vector<int64_t>{4, j, 3}));
+  for (int t = 0; t < 4; ++t)
+    for (int k = 0; k < j; ++k)
+      for (int e = 0; e < 3; ++e)
+        EXPECT_NEAR(pos[t][k][e].item<double>(), ref.position(t, k)[e] * s.meters_per_unit, 1e-5) << t << " " << k;
+}
+
+TEST(Dfn, RotationFeaturesGiveTheJointPositionsOfCoreFk) {
+  // The FK positions the rotation form's Eq. 2 term compares: rotation features written by
+  // data::encode give the pairwise joint distances of core FK (they are in the heading frame).
+  const ModelContext c = skeleton_context(data::PoseForm::kRotations);
+  auto m = make(c);
+  ASSERT_EQ(m->ae->head(), DfnPoseHead::kRotationsFk);
+  const Motion motion = random_motion(c.skeleton, 3, 2);
+  std::vector<float> pose, control;
+  data::encode(c.skeleton, motion, c.layout, &pose, &control);
+  auto x = torch::tensor(pose).reshape({3, c.pose_dim});
+  auto pos = m->ae->feature_positions(x);
+  const WorldPoses ref = forward_kinematics(c.skeleton, motion);
+  const int j = c.skeleton.num_joints();
+  for (int t = 0; t < 3; ++t)
+    for (int a = 0; a < j; ++a)
+      for (int b = a + 1; b < j; ++b)
+        EXPECT_NEAR(dist(pos[t], a, b), (ref.position(t, a) - ref.position(t, b)).norm() * 0.01, 1e-5);
+}
+
+TEST(Dfn, DecodedPosesKeepTheBoneLengths) {
+  for (auto form : data::kPoseForms) {
+    const ModelContext c = skeleton_context(form);
+    auto m = make(c);
+    auto d = m->ae->decode(torch::randn({2, 5, 6}));
+    ASSERT_EQ(d.pose.sizes(), (std::vector<int64_t>{2, 5, c.pose_dim}));
+    ASSERT_EQ(d.control.sizes(), (std::vector<int64_t>{2, 5, 3}));
+    auto pos = m->ae->feature_positions(d.pose).reshape({10, 5, 3});
+    for (int i = 0; i < 10; ++i)
+      for (int k = 1; k < 5; ++k)
+        EXPECT_NEAR(dist(pos[i], k, c.skeleton.parents[k]), c.skeleton.offsets[k].norm() * 0.01, 1e-5)
+            << data::to_string(form) << " joint " << k;
+  }
+}
+
+TEST(Dfn, ShapesOfCodesWindowsLossesAndSamples) {
+  const ModelContext c = nn::testing::small_context(6, 3);
+  auto m = make(c);
+  EXPECT_EQ(m->ae->head(), DfnPoseHead::kPlain);  // no skeleton: the plain decoder
+  const Batch b = nn::testing::noisy_sinusoid_batch(3, 12, 6);
+  auto z = m->codes(b.pose, b.control);
+  EXPECT_EQ(z.sizes(), (std::vector<int64_t>{3, 12, 6}));
+  auto w = m->future_windows(z);  // H = 3
+  ASSERT_EQ(w.sizes(), (std::vector<int64_t>{3, 9, 3, 6}));
+  EXPECT_TRUE(torch::equal(w[1][4], z[1].narrow(0, 5, 3)));  // frames t+1..t+H of t = 4
+  EXPECT_EQ(m->future->embed(w.reshape({-1, 3, 6})).sizes(), (std::vector<int64_t>{27, 4}));
+  for (int s = -1; s < 3; ++s) {
+    m->begin_stage(s, TrainingStage{});
+    EXPECT_TRUE(std::isfinite(m->loss(b).loss().item<double>())) << s;
+  }
+  EXPECT_THROW(m->loss(nn::testing::noisy_sinusoid_batch(2, 3, 6)), Error);  // T <= H
+  SampleRequest r;
+  r.control = torch::zeros({2, 7, 3});
+  r.prefix_pose = torch::randn({2, 5, 6});
+  auto out = m->sample(r);
+  EXPECT_EQ(out.pose.sizes(), (std::vector<int64_t>{2, 7, 6}));
+  EXPECT_EQ(out.control.sizes(), (std::vector<int64_t>{2, 7, 3}));
+  const ModelTraits t = m->traits();
+  EXPECT_EQ(t.control, InputUse::kGenerates);
+  EXPECT_FALSE(t.labels);
+  EXPECT_TRUE(t.prefix);
+}
+
+TEST(Dfn, KlAndLogDensityMatchTheClosedFormByHand) {
+  // KL(N(1, 0.5^2) || N(-0.5, 2^2)) = log(2 / 0.5) + (0.25 + 1.5^2) / (2 * 4) - 1/2, and a
+  // second dimension with equal Gaussians adds 0.
+  auto qm = torch::tensor({1.0, 0.3}, torch::kFloat64), qlv = torch::tensor({std::log(0.25), 0.2}, torch::kFloat64);
+  auto pm = torch::tensor({-0.5, 0.3}, torch::kFloat64), plv = torch::tensor({std::log(4.0), 0.2}, torch::kFloat64);
+  const double expected = std::log(4.0) + (0.25 + 2.25) / 8.0 - 0.5;
+  EXPECT_NEAR(dfn_kl_diag(qm, qlv, pm, plv).item<double>(), expected, 1e-12);
+  EXPECT_NEAR(dfn_kl_diag(qm, qlv, qm, qlv).item<double>(), 0.0, 1e-12);
+  // Monte Carlo agrees: E_q[log q - log p].
+  torch::manual_seed(1);
+  auto x = qm + torch::exp(0.5 * qlv) * torch::randn({200000, 2}, torch::kFloat64);
+  const double mc = (dfn_log_normal(x, qm, qlv) - dfn_log_normal(x, pm, plv)).mean().item<double>();
+  EXPECT_NEAR(mc, expected, 0.01);
+  // log N(0.5; 1, 0.25) = -0.5 log(2 pi 0.25) - 0.25 / (2 * 0.25)
+  auto one = torch::tensor({0.5}, torch::kFloat64);
+  EXPECT_NEAR(dfn_log_normal(one, torch::tensor({1.0}, torch::kFloat64), torch::tensor({std::log(0.25)}, torch::kFloat64))
+                  .item<double>(),
+              -0.5 * std::log(2 * M_PI * 0.25) - 0.5, 1e-12);
+}
+
+TEST(Dfn, EachStageLossFalls) {
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  auto m = make(c);
+  m->train();
+  torch::manual_seed(4);
+  Batch b;
+  b.pose = torch::randn({4, 12, c.pose_dim}) * 0.3;
+  b.control = torch::randn({4, 12, 3}) * 0.3;
+  const std::vector<std::string> prefixes = {"ae.", "future.", "dyn."};
+  for (int s = 0; s < 3; ++s) {
+    m->begin_stage(s, TrainingStage{});
+    std::vector<torch::Tensor> params;
+    for (const auto& kv : m->named_parameters())
+      if (kv.key().rfind(prefixes[s], 0) == 0) params.push_back(kv.value());
+    torch::optim::Adam opt(params, torch::optim::AdamOptions(1e-2));
+    torch::manual_seed(5);
+    const double first = m->loss(b).loss().item<double>();
+    for (int i = 0; i < 80; ++i) {
+      opt.zero_grad();
+      m->loss(b).loss().backward();
+      opt.step();
+    }
+    torch::manual_seed(5);
+    const double last = m->loss(b).loss().item<double>();
+    EXPECT_LT(last, 0.8 * first) << "stage " << s << ": " << first << " -> " << last;
+  }
+}
+
+TEST(Dfn, SeedsTemperatureAndLongOpenLoopSamples) {
+  const ModelContext c = skeleton_context(data::PoseForm::kRotations);
+  auto m = make(c);
+  m->eval();
+  SampleRequest r;
+  r.control = torch::zeros({2, 30, 3});
+  r.prefix_pose = torch::randn({2, 8, c.pose_dim});
+  r.seed = 1;
+  auto a = m->sample(r), again = m->sample(r);
+  EXPECT_TRUE(torch::equal(a.pose, again.pose));
+  EXPECT_TRUE(torch::equal(a.control, again.control));
+  SampleRequest other = r;
+  other.seed = 2;
+  EXPECT_FALSE(torch::equal(a.pose, m->sample(other).pose));
+  // Temperature 0: every latent is its mean, so the seed no longer matters.
+  r.temperature = other.temperature = 0;
+  EXPECT_TRUE(torch::equal(m->sample(r).pose, m->sample(other).pose));
+  // 900 frames open loop without a prefix: finite, and the decoded rotations are rotations.
+  SampleRequest longer;
+  longer.control = torch::zeros({1, 900, 3});
+  longer.seed = 3;
+  auto l = m->sample(longer);
+  EXPECT_TRUE(torch::isfinite(l.pose).all().item<bool>());
+  EXPECT_TRUE(torch::isfinite(l.control).all().item<bool>());
+  auto pos = m->ae->feature_positions(l.pose[0]);
+  EXPECT_NEAR(dist(pos[899], 4, 3), 0.2002498, 1e-5);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Through the shared trainer.
+
+namespace {
+
+using Snapshot = std::map<std::string, torch::Tensor>;
+
+TrainOptions dfn_options(const fs::path& dir) {
+  TrainOptions o;
+  o.family = "dfn";
+  o.out_dir = dir.string();
+  o.model_config = tiny();
+  o.model_config["stage_steps"] = {4, 4, 4};
+  o.steps = 12;
+  o.batch = 4;
+  o.lr = 1e-2;
+  o.warmup = 2;
+  o.threads = 1;
+  o.checkpoint_every = 4;
+  o.validate_every = 4;
+  o.log_every = 1;
+  o.seed = 9;
+  return o;
+}
+
+fs::path run_dir(const std::string& name) {
+  auto p = fs::temp_directory_path() / ("mosyn_dfn_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+Snapshot checkpoint_tensors(const fs::path& run, const ModelContext& c) {
+  auto m = make(c, dfn_options(run).model_config);
+  load_checkpoint((run / "checkpoint.pt").string(), *m, nullptr, torch::kCPU);
+  Snapshot s;
+  for (const auto& kv : m->named_parameters()) s[kv.key()] = kv.value().detach().clone();
+  return s;
+}
+
+bool same_under(const Snapshot& a, const Snapshot& b, const std::string& prefix) {
+  for (const auto& [name, t] : a)
+    if (name.rfind(prefix, 0) == 0 && !torch::equal(t, b.at(name))) return false;
+  return true;
+}
+
+ModelContext dataset_context(const data::Dataset& ds) {
+  ModelContext c = nn::testing::small_context(nn::testing::kDim, 3);
+  c.fps = ds.info().fps;
+  c.pose_form = ds.info().layout.form;
+  c.skeleton = ds.info().skeleton;
+  c.layout = ds.info().layout;
+  c.stats = ds.stats();
+  return c;
+}
+
+// Trains until just before step `stop_before` (0 = to the end); returns the checkpoint.
+Snapshot train_until(const fs::path& dir, const data::Dataset& ds, int stop_before) {
+  int calls = 0;
+  TrainCallbacks cb;
+  if (stop_before > 0) cb.should_stop = [&] { return ++calls == stop_before; };
+  train(dfn_options(dir), ds, cb);
+  return checkpoint_tensors(dir, dataset_context(ds));
+}
+
+}  // namespace
+
+TEST(Dfn, TheThreeStagesTrainAndFreezeWhatTheyShould) {
+  auto m = make(nn::testing::small_context());
+  TrainStageDefaults d;
+  d.steps = 1000;
+  const auto stages = m->training_stages(d);
+  ASSERT_EQ(stages.size(), 3u);
+  EXPECT_EQ(stages[0].steps + stages[1].steps + stages[2].steps, 1000);
+  EXPECT_EQ(stages[0].steps, 300);
+  EXPECT_EQ(stages[1].frozen, (std::vector<std::string>{"ae"}));
+  EXPECT_EQ(stages[2].frozen, (std::vector<std::string>{"ae", "future"}));
+  EXPECT_EQ(stages[2].trained, (std::vector<std::string>{"dyn"}));
+
+  const auto ds = nn::testing::synthetic_dataset();
+  const auto dir = run_dir("freeze");
+  const Snapshot after_ae = train_until(dir, ds, 5);
+  fs::remove_all(dir);
+  const Snapshot after_future = train_until(dir, ds, 9);
+  fs::remove_all(dir);
+  const Snapshot end = train_until(dir, ds, 0);
+  EXPECT_FALSE(same_under(after_ae, after_future, "future."));
+  EXPECT_TRUE(same_under(after_ae, after_future, "ae."));
+  EXPECT_TRUE(same_under(after_ae, after_future, "dyn."));
+  EXPECT_FALSE(same_under(after_future, end, "dyn."));
+  EXPECT_TRUE(same_under(after_future, end, "ae."));
+  EXPECT_TRUE(same_under(after_future, end, "future."));
+  fs::remove_all(dir);
+}
+
+TEST(Dfn, InterruptedInTheSecondStageResumesExactly) {
+  const auto ds = nn::testing::synthetic_dataset();
+  const auto full = run_dir("full");
+  const Snapshot expected = train_until(full, ds, 0);
+  const auto dir = run_dir("stop");
+  int calls = 0;
+  TrainCallbacks cb;
+  cb.should_stop = [&] { return ++calls == 7; };  // stage 2, after 2 of its 4 steps
+  const TrainResult first = train(dfn_options(dir), ds, cb);
+  EXPECT_TRUE(first.stopped_early);
+  EXPECT_EQ(first.step, 6);
+  auto o = dfn_options(dir);
+  o.resume = true;
+  EXPECT_EQ(train(o, ds).step, 12);
+  const Snapshot got = checkpoint_tensors(dir, dataset_context(ds));
+  for (const auto& [name, t] : expected) EXPECT_TRUE(torch::equal(t, got.at(name))) << name;
+  fs::remove_all(dir);
+  fs::remove_all(full);
+}
