@@ -115,40 +115,51 @@ torch::Tensor HvrnnImpl::initial_state(const torch::Tensor& content, const torch
   return mean + temperature * std * draw(mean.sizes(), opts, gen);
 }
 
+torch::Tensor HvrnnImpl::cell_step(std::vector<torch::Tensor>& hs, const torch::Tensor& word,
+                                   const torch::Tensor& drop, const torch::Tensor& a, double temperature,
+                                   at::Generator* gen, torch::Tensor* kl) {
+  const double floor = options_.spread_floor;
+  auto h = torch::cat(hs, -1);
+  auto prior_in = torch::cat({h, a}, -1);
+  auto mp = prior_mu->forward(prior_in), sp = prior_sigma->forward(prior_in) + floor;
+  torch::Tensor z, fw;
+  if (word.defined()) {  // Alg. 1: the posterior of the observed word
+    fw = f_w->forward(word);
+    auto post_in = torch::cat({fw, h, a}, -1);
+    auto mq = post_mu->forward(post_in), sq = post_sigma->forward(post_in) + floor;
+    z = mq + temperature * sq * draw(mq.sizes(), mq.options(), gen);
+    if (kl) *kl = hvrnn::gaussian_kl(mq, sq, mp, sp);
+  } else {  // Alg. 2: the prior
+    z = mp + temperature * sp * draw(mp.sizes(), mp.options(), gen);
+  }
+  auto fz = f_z->forward(z);
+  auto out = f_dec->forward(torch::cat({fz, h, a}, -1));
+  if (!word.defined()) {
+    fw = f_w->forward(out);  // Alg. 2: the generated word is fed back
+  } else if (drop.defined()) {
+    fw = torch::where(drop.unsqueeze(1), f_w->forward(out), fw);  // scheduled word dropping
+  }
+  auto x = torch::cat({fw, fz}, -1);
+  for (int l = 0; l < options_.state_layers; ++l) {
+    hs[l] = grus[l]->as<torch::nn::GRUCellImpl>()->forward(x, hs[l]);
+    x = hs[l];
+  }
+  return out;
+}
+
 HvrnnImpl::Unroll HvrnnImpl::unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n,
                                     const torch::Tensor& h0, const torch::Tensor& a, double temperature,
                                     at::Generator* gen) {
   const int64_t k = words.defined() ? words.size(1) : 0;
-  const double floor = options_.spread_floor;
   std::vector<torch::Tensor> hs = h0.chunk(options_.state_layers, -1);
   std::vector<torch::Tensor> outs, kls;
   for (int64_t i = 0; i < n; ++i) {
-    auto h = torch::cat(hs, -1);
-    auto prior_in = torch::cat({h, a}, -1);
-    auto mp = prior_mu->forward(prior_in), sp = prior_sigma->forward(prior_in) + floor;
-    torch::Tensor z, fw;
-    if (i < k) {
-      fw = f_w->forward(words.select(1, i));
-      auto post_in = torch::cat({fw, h, a}, -1);
-      auto mq = post_mu->forward(post_in), sq = post_sigma->forward(post_in) + floor;
-      z = mq + temperature * sq * draw(mq.sizes(), mq.options(), gen);
-      kls.push_back(hvrnn::gaussian_kl(mq, sq, mp, sp));
-    } else {
-      z = mp + temperature * sp * draw(mp.sizes(), mp.options(), gen);
-    }
-    auto fz = f_z->forward(z);
-    auto out = f_dec->forward(torch::cat({fz, h, a}, -1));
-    outs.push_back(out);
-    if (i >= k) {
-      fw = f_w->forward(out);  // Alg. 2: the generated word is fed back
-    } else if (drop.defined()) {
-      fw = torch::where(drop.select(1, i).unsqueeze(1), f_w->forward(out), fw);
-    }
-    auto x = torch::cat({fw, fz}, -1);
-    for (int l = 0; l < options_.state_layers; ++l) {
-      hs[l] = grus[l]->as<torch::nn::GRUCellImpl>()->forward(x, hs[l]);
-      x = hs[l];
-    }
+    torch::Tensor kl;
+    const bool teacher = i < k;
+    outs.push_back(cell_step(hs, teacher ? words.select(1, i) : torch::Tensor(),
+                             teacher && drop.defined() ? drop.select(1, i) : torch::Tensor(), a, temperature, gen,
+                             teacher ? &kl : nullptr));
+    if (teacher) kls.push_back(kl);
   }
   Unroll u;
   u.out = torch::stack(outs, 1);
@@ -276,8 +287,23 @@ ModelTraits HvrnnImpl::traits() const {
   t.control = InputUse::kGenerates;
   t.labels = label_dim_ > 0;
   t.prefix = true;
-  t.streaming = false;
+  t.streaming = true;  // word by word, equal to sample(); nothing per frame comes in
   return t;
+}
+
+torch::Tensor HvrnnImpl::prefix_words(const SampleRequest& request, int64_t b) {
+  const int64_t d = context_.pose_dim, c = context_.control_dim, l = options_.word_length;
+  const int64_t p = request.prefix_pose.defined() ? request.prefix_pose.size(1) : 0;
+  if (p < l) return {};  // no whole word to continue
+  auto opts = init_mean.options();
+  const auto& pre = request.prefix_pose;
+  if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
+    throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
+  auto pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(opts) : torch::zeros({b, p, c}, opts);
+  if (pre_ctrl.sizes() != at::IntArrayRef({b, p, c}))
+    throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
+  const int64_t k = p / l;  // whole words ending at the prefix's last frame
+  return encode_words(torch::cat({pre.to(opts), pre_ctrl}, -1).narrow(1, p - k * l, k * l));
 }
 
 SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
@@ -291,23 +317,59 @@ SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
   auto gen = at::detail::createCPUGenerator(request.seed);
   auto a = label_code(request.content, request.style, b, opts);
   auto h0 = initial_state(request.content, request.style, b, request.temperature, &gen);
-  torch::Tensor words;
-  const int64_t p = request.prefix_pose.defined() ? request.prefix_pose.size(1) : 0;
-  if (p >= l) {
-    const auto& pre = request.prefix_pose;
-    if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
-      throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
-    auto pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(opts) : torch::zeros({b, p, c}, opts);
-    if (pre_ctrl.sizes() != at::IntArrayRef({b, p, c}))
-      throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
-    const int64_t k = p / l;  // whole words ending at the prefix's last frame
-    auto frames = torch::cat({pre.to(opts), pre_ctrl}, -1).narrow(1, p - k * l, k * l);
-    words = encode_words(frames);
-  }
+  auto words = prefix_words(request, b);
   const int64_t k = words.defined() ? words.size(1) : 0, n_gen = (t + l - 1) / l;
   auto u = unroll(words, {}, k + n_gen, h0, a, request.temperature, &gen);
   auto x = normalise_rotations(decode_words(u.out.narrow(1, k, n_gen)).narrow(1, 0, t));
   return {x.narrow(-1, 0, d).contiguous(), x.narrow(-1, d, c).contiguous()};
+}
+
+namespace {
+
+// A word-wise stream: the cell makes a word of l frames whenever the last one is used up.
+struct HvrnnStream : StreamState {
+  at::Generator gen;
+  std::vector<torch::Tensor> hs;
+  torch::Tensor a;
+  torch::Tensor frames;  // [B, l, F] the current word's frames (undefined before the first)
+  int64_t next = 0;      // index of the next frame in `frames`
+  double temperature = 1.0;
+};
+
+}  // namespace
+
+std::unique_ptr<StreamState> HvrnnImpl::begin_stream(const SampleRequest& request) {
+  torch::NoGradGuard no_grad;
+  int64_t b = request.batch;
+  if (request.prefix_pose.defined()) b = request.prefix_pose.size(0);
+  else if (request.content.defined()) b = request.content.size(0);
+  else if (request.style.defined()) b = request.style.size(0);
+  if (b < 1) throw Error("hvrnn stream: no batch size (prefix, labels or request.batch)");
+  auto s = std::make_unique<HvrnnStream>();
+  s->gen = at::detail::createCPUGenerator(request.seed);
+  s->temperature = request.temperature;
+  auto opts = init_mean.options();
+  s->a = label_code(request.content, request.style, b, opts);
+  s->hs = initial_state(request.content, request.style, b, request.temperature, &s->gen).chunk(options_.state_layers, -1);
+  auto words = prefix_words(request, b);  // the same draws, in the same order, as sample()
+  for (int64_t i = 0; words.defined() && i < words.size(1); ++i)
+    cell_step(s->hs, words.select(1, i), {}, s->a, s->temperature, &s->gen, nullptr);
+  s->next = options_.word_length;
+  return s;
+}
+
+StreamFrame HvrnnImpl::step_stream(StreamState& state, const torch::Tensor&) {
+  torch::NoGradGuard no_grad;
+  auto* s = dynamic_cast<HvrnnStream*>(&state);
+  if (!s) throw Error("hvrnn: step_stream needs a stream from this family's begin_stream");
+  if (s->next >= options_.word_length) {
+    auto word = cell_step(s->hs, {}, {}, s->a, s->temperature, &s->gen, nullptr);
+    s->frames = normalise_rotations(decode_words(word.unsqueeze(1)));
+    s->next = 0;
+  }
+  auto f = s->frames.select(1, s->next++);
+  const int64_t d = context_.pose_dim;
+  return {f.narrow(-1, 0, d).contiguous(), f.narrow(-1, d, context_.control_dim).contiguous()};
 }
 
 }  // namespace mosyn::nn

@@ -128,6 +128,10 @@ class HvrnnImpl : public MotionModel {
   LossTerms loss(const Batch& batch) override;
   SampleOutput sample(const SampleRequest& request) override;
   ModelTraits traits() const override;
+  // Frame by frame, equal to sample() for the same request: a new word is generated whenever
+  // the last one's l frames are used up (the control argument is ignored: the model makes its own).
+  std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
+  StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
 
   // One pass of the motion cell over N words. words [B, K, W] (K teacher-forced words, may be
   // undefined for K = 0); drop [B, K] bool (a dropped word feeds the cell's own output to the
@@ -139,6 +143,13 @@ class HvrnnImpl : public MotionModel {
   Unroll unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n, const torch::Tensor& h0,
                 const torch::Tensor& a, double temperature, at::Generator* gen);
 
+  // One motion-cell step on the state hs (updated): word [B, W] observed (Alg. 1; *kl receives
+  // KL(q || p) [B] when kl is given) or undefined (Alg. 2, the prior). drop [B] bool (optional):
+  // rows whose state update takes the cell's own output instead of the word. Returns w~ [B, W].
+  torch::Tensor cell_step(std::vector<torch::Tensor>& hs, const torch::Tensor& word, const torch::Tensor& drop,
+                          const torch::Tensor& a, double temperature, at::Generator* gen, torch::Tensor* kl);
+  // The request's prefix as the whole words ending at its last frame [B, K, W] (undefined: none).
+  torch::Tensor prefix_words(const SampleRequest& request, int64_t b);
   // frames [B, N l, F] -> words [B, N, W]; words -> frames.
   torch::Tensor encode_words(const torch::Tensor& frames);
   torch::Tensor decode_words(const torch::Tensor& words);

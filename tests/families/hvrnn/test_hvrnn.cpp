@@ -270,6 +270,24 @@ TEST(HvrnnModel, ContinuesAPrefixWordByWord) {
   EXPECT_TRUE(torch::equal(m.sample(short_prefix).pose, plain.pose));
 }
 
+TEST(HvrnnModel, StreamsWordByWordAsSampleDoes) {
+  torch::manual_seed(10);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), rotations_context());
+  m.eval();
+  EXPECT_TRUE(m.traits().streaming);
+  SampleRequest r = request(2, 8, 11);
+  r.content = torch::tensor({1, -1});
+  r.style = torch::tensor({0, 1});
+  r.prefix_pose = rotation_batch(2, 7).pose;
+  const SampleOutput offline = m.sample(r);
+  auto stream = m.begin_stream(r);
+  for (int64_t t = 0; t < 8; ++t) {
+    const StreamFrame f = m.step_stream(*stream, {});
+    EXPECT_TRUE(torch::allclose(f.pose, offline.pose.select(1, t), 1e-5, 1e-5)) << t;
+    EXPECT_TRUE(torch::allclose(f.control, offline.control.select(1, t), 1e-5, 1e-5)) << t;
+  }
+}
+
 TEST(HvrnnPresets, AblationsBuildAndTrain) {
   const auto sl = HvrnnOptions::from_json({{"preset", "SL"}});
   EXPECT_FALSE(sl.word_coder);
