@@ -151,9 +151,8 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     auto f = reparameterise(qf);
     auto ps = dyn->prior_s(m_t, h_t), qs = dyn->posterior_s(h_t, z_t, m_t);
     auto s = reparameterise(qs);
-    // Unit-variance Gaussian likelihoods of the code and the future summary.
-    nll_z = nll_z + 0.5 * ((dyn->decode_z(s, h_t) - z_t).pow(2).sum(-1) + options_.code * kLog2Pi);
-    nll_m = nll_m + 0.5 * ((dyn->decode_m(f, h_t) - m_t).pow(2).sum(-1) + options_.future * kLog2Pi);
+    nll_z = nll_z - dyn->log_p_z(z_t, s, h_t);
+    nll_m = nll_m - dyn->log_p_m(m_t, f, h_t);
     kl_s = kl_s + dfn_kl_diag(qs.mean, qs.logvar, ps.mean, ps.logvar);
     kl_f = kl_f + dfn_kl_diag(qf.mean, qf.logvar, pf.mean, pf.logvar);
     hs.push_back(h_t);

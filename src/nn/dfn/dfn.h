@@ -152,7 +152,12 @@ class DfnDynamicsImpl : public torch::nn::Module {
   // One GRU step: state = {h1, h2} -> new state; h_t is the top layer h2.
   std::pair<torch::Tensor, torch::Tensor> step(const std::pair<torch::Tensor, torch::Tensor>& state,
                                                const torch::Tensor& s, const torch::Tensor& f);
+  // log p(z | s, h) and log p(m | f, h): Gaussians with a learned per-dimension log-variance
+  // (bounded softly to [-8, 8]) around decode_z / decode_m, summed over the last dimension.
+  torch::Tensor log_p_z(const torch::Tensor& z, const torch::Tensor& s, const torch::Tensor& h);
+  torch::Tensor log_p_m(const torch::Tensor& m, const torch::Tensor& f, const torch::Tensor& h);
   torch::nn::GRUCell gru1{nullptr}, gru2{nullptr};
+  torch::Tensor z_logvar, m_logvar;  // parameters [code], [future]
   torch::nn::Sequential prior_f_net{nullptr}, post_f_net{nullptr}, m_net{nullptr}, prior_s_net{nullptr},
       post_s_net{nullptr}, z_net{nullptr}, td_q_net{nullptr}, td_p_net{nullptr};
 };

@@ -286,6 +286,18 @@ DfnDynamicsImpl::DfnDynamicsImpl(const DfnOptions& o) {
   z_net = register_module("z", dfn_mlp(s + h, o.z_hidden, 3, z, a));                         // 3 hidden
   td_q_net = register_module("td_q", dfn_mlp(s + 2 * h, o.td_hidden, 2, 2 * s, a));          // Eq. 13
   td_p_net = register_module("td_p", dfn_mlp(s + 1, o.td_hidden, 3, 2 * s, a));              // Eq. 14
+  z_logvar = register_parameter("z_logvar", torch::zeros({z}));
+  m_logvar = register_parameter("m_logvar", torch::zeros({m}));
+}
+
+torch::Tensor DfnDynamicsImpl::log_p_z(const torch::Tensor& z, const torch::Tensor& s, const torch::Tensor& h) {
+  auto mean = decode_z(s, h);
+  return dfn_log_normal(z, mean, (8.0 * torch::tanh(z_logvar / 8.0)).expand_as(mean));
+}
+
+torch::Tensor DfnDynamicsImpl::log_p_m(const torch::Tensor& m, const torch::Tensor& f, const torch::Tensor& h) {
+  auto mean = decode_m(f, h);
+  return dfn_log_normal(m, mean, (8.0 * torch::tanh(m_logvar / 8.0)).expand_as(mean));
 }
 
 DfnDynamicsImpl::Gaussian DfnDynamicsImpl::split(const torch::Tensor& x) {

@@ -239,6 +239,29 @@ TEST(Dfn, SeedsTemperatureAndLongOpenLoopSamples) {
   EXPECT_NEAR(dist(pos[899], 4, 3), 0.2002498, 1e-5);
 }
 
+TEST(Dfn, StreamingAfterAPrefixEqualsOfflineSampling) {
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  auto m = make(c);
+  m->eval();
+  SampleRequest r;
+  r.control = torch::zeros({2, 6, 3});
+  r.prefix_pose = torch::randn({2, 7, c.pose_dim});
+  r.prefix_control = torch::randn({2, 7, 3});
+  r.seed = 12;
+  r.temperature = 0.7;
+  const SampleOutput offline = m->sample(r);
+  auto stream = m->begin_stream(r);
+  for (int t = 0; t < 6; ++t) {
+    const StreamFrame f = m->step_stream(*stream, {});
+    EXPECT_TRUE(torch::equal(f.pose, offline.pose.select(1, t))) << t;
+    EXPECT_TRUE(torch::equal(f.control, offline.control.select(1, t))) << t;
+  }
+  // The prefix matters.
+  SampleRequest other = r;
+  other.prefix_pose = r.prefix_pose + 0.5;
+  EXPECT_FALSE(torch::equal(m->sample(other).pose, offline.pose));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Through the shared trainer.
 
