@@ -9,7 +9,6 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "nn/config_json.h"
 
 namespace mosyn::nn {
 
@@ -142,7 +141,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   auto opts = z.options();
   std::pair<torch::Tensor, torch::Tensor> state{torch::zeros({b, options_.state}, opts),
                                                 torch::zeros({b, options_.state}, opts)};
-  auto nll_z = torch::zeros({b}, opts), nll_m = nll_z, kl_s = nll_z, kl_f = nll_z;
+  auto nll_z = torch::zeros({b}, opts), nll_m = nll_z, kl_s = nll_z, kl_f = nll_z, z_se = nll_z;
   std::vector<torch::Tensor> hs, ss, ps_mean, ps_logvar;
   for (int64_t t = 0; t < l; ++t) {
     const auto h_t = state.second;
@@ -152,6 +151,10 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     auto ps = dyn->prior_s(m_t, h_t), qs = dyn->posterior_s(h_t, z_t, m_t);
     auto s = reparameterise(qs);
     nll_z = nll_z - dyn->log_p_z(z_t, s, h_t);
+    {
+      torch::NoGradGuard no_grad;  // the code's squared error, for the log only
+      z_se = z_se + (dyn->decode_z(s, h_t) - z_t).pow(2).mean(-1);
+    }
     nll_m = nll_m - dyn->log_p_m(m_t, f, h_t);
     kl_s = kl_s + dfn_kl_diag(qs.mean, qs.logvar, ps.mean, ps.logvar);
     kl_f = kl_f + dfn_kl_diag(qf.mean, qf.logvar, pf.mean, pf.logvar);
@@ -183,6 +186,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   LossTerms out;
   out.terms["loss"] = nz + options_.m_weight * nm + options_.kl_weight * (ks + kf) + options_.td_weight * (td_kl + td_nll);
   out.terms["nll_z"] = nz.detach();
+  out.terms["z_mse"] = (z_se * per).mean();
   out.terms["nll_m"] = nm.detach();
   out.terms["kl_s"] = ks.detach();
   out.terms["kl_f"] = kf.detach();

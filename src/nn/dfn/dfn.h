@@ -179,7 +179,7 @@ class DfnImpl : public MotionModel {
 
   // The current stage's objective (per frame, standardised space); before any stage (-1) the sum
   // of all three. Terms: "loss", "ae_pose", "ae_velocity", "ae_fk", "future_rec", "future_smooth",
-  // "nll_z", "nll_m", "kl_s", "kl_f", "td_kl", "td_nll" as the stage computes them.
+  // "nll_z", "z_mse", "nll_m", "kl_s", "kl_f", "td_kl", "td_nll" as the stage computes them.
   LossTerms loss(const Batch& batch) override;
   LossTerms autoencoder_loss(const Batch& batch);
   LossTerms future_loss(const Batch& batch);
