@@ -173,7 +173,10 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     const int64_t n = l - delta;
     auto H = torch::stack(hs, 1), S = torch::stack(ss, 1);
     auto PM = torch::stack(ps_mean, 1), PL = torch::stack(ps_logvar, 1);
-    auto h1 = H.narrow(1, 0, n), h2 = H.narrow(1, delta, n), s2 = S.narrow(1, delta, n);
+    // s_t2 is the target, detached: with gradients the posterior could shrink its variance to make
+    // itself predictable and drive -log p(s_t2 | ...) to minus infinity (a degenerate optimum the
+    // text's Eq. 15 does not rule out; TD-VAE balances it with terms the paper does not keep).
+    auto h1 = H.narrow(1, 0, n), h2 = H.narrow(1, delta, n), s2 = S.narrow(1, delta, n).detach();
     auto q = DfnDynamicsImpl::split(dyn->td_q_net->forward(torch::cat({s2, h1, h2}, -1)));
     auto s1 = reparameterise(q);
     td_kl = dfn_kl_diag(q.mean, q.logvar, PM.narrow(1, 0, n), PL.narrow(1, 0, n)).mean();
