@@ -33,6 +33,15 @@ RunLock::RunLock(const fs::path& dir) {
     throw Error(dir.string() + ": another mosyn process is training into this run directory (its lock " + path +
                 " is held); wait for it to finish or stop it");
   }
+  // A writer killed mid-write (SIGKILL, power loss) leaves its temporary file behind
+  // (io/atomic_file.h: "<name>.tmp.<pid>.<n>"); the final files are whole. Holding the lock, no
+  // one else is writing here, so the leftovers can go.
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    const size_t at = name.find(".tmp.");
+    if (at != std::string::npos && at > 0 && entry.is_regular_file(ec)) fs::remove(entry.path(), ec);
+  }
 }
 
 RunLock::~RunLock() {

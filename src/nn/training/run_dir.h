@@ -21,6 +21,8 @@ struct RunPaths {
 // Throws mosyn::Error naming the directory when another process holds it.
 class RunLock {
  public:
+  // Takes the lock (throws mosyn::Error naming the directory when another process holds it) and
+  // removes temporary files that a killed writer left in the directory.
   explicit RunLock(const std::filesystem::path& dir);
   ~RunLock();
   RunLock(const RunLock&) = delete;

@@ -1,0 +1,111 @@
+// Training survives SIGKILL at any moment (issue "reliability"): a small run is killed at random
+// moments (during start-up, steps and checkpoint writes) and resumed, again and again. Every
+// checkpoint left behind loads, the step count never goes back past the last completed
+// checkpoint, a killed writer's temporary files are removed when the run resumes, and the final
+// weights equal those of an uninterrupted run (schedule, data order and dropout are deterministic
+// given the seed).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <torch/torch.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <random>
+#include <thread>
+
+#include "cli_test_util.h"
+#include "io/json_file.h"
+#include "nn/model.h"
+#include "nn/run.h"
+
+namespace mosyn {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Starts `mosyn args...` (stdout and stderr to /dev/null); returns its pid.
+pid_t spawn_mosyn(const std::vector<std::string>& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    std::string binary = MOSYN_CLI_PATH;
+    argv.push_back(binary.data());
+    std::vector<std::string> copy = args;
+    for (auto& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    freopen("/dev/null", "w", stdout);
+    freopen("/dev/null", "w", stderr);
+    execv(binary.c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::vector<std::string> train_args(const std::string& data, const std::string& out, bool resume) {
+  std::vector<std::string> a = {"train",   "moglow",       "--data", data,  "--out",          out,
+                                "--steps", "120",          "--batch", "4",  "--window",       "20",
+                                "--warmup", "0",           "--seed", "5",   "--checkpoint-every", "3",
+                                "--validate-every", "12",  "--threads", "1"};
+  if (resume) a.push_back("--resume");
+  return a;
+}
+
+// Step of the run's checkpoint (loads every file the run needs), or -1 when the run has none yet.
+int checkpoint_step(const std::string& run) {
+  if (!fs::exists(fs::path(run) / "checkpoint.pt")) return -1;
+  return nn::load_run(run, nn::LoadOptions{"checkpoint.pt", "cpu", 1}).step;
+}
+
+TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
+  const std::string root = testing::fresh_dir("cli_kill").string();
+  testing::copy_test_model(root, "dataset-rotations", "dataset");
+  std::ofstream(root + "/tiny.json") << R"({"model": {"num_steps": 2, "hidden": 8, "tau": 3}})";
+  auto with_config = [&](std::vector<std::string> a) {
+    a.insert(a.end(), {"--config", root + "/tiny.json"});
+    return a;
+  };
+  const std::string whole = root + "/whole", killed = root + "/killed";
+  ASSERT_EQ(wait_exit(spawn_mosyn(with_config(train_args(root + "/dataset", whole, false)))), 0);
+
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> delay_ms(150, 1200);
+  int last_step = -1, kills = 0;
+  for (int attempt = 0; attempt < 40 && kills < 20; ++attempt) {
+    const bool resume = fs::exists(fs::path(killed) / "checkpoint.pt");
+    if (!resume) fs::remove_all(killed);  // killed before its first checkpoint: start again
+    const pid_t pid = spawn_mosyn(with_config(train_args(root + "/dataset", killed, resume)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms(rng)));
+    const bool was_running = kill(pid, SIGKILL) == 0;
+    const int code = wait_exit(pid);
+    if (was_running && code == 128 + SIGKILL) ++kills;
+    const int step = checkpoint_step(killed);  // throws (fails the test) on a torn checkpoint
+    EXPECT_GE(step, last_step) << "the step went back past a completed checkpoint";
+    last_step = step;
+    if (fs::exists(fs::path(killed) / "best.pt"))
+      EXPECT_NO_THROW(nn::load_run(killed, nn::LoadOptions{"best.pt", "cpu", 1}));
+    if (code == 0) break;  // finished before the kill
+  }
+  EXPECT_GE(kills, 10) << "too few kills landed while the run was going";
+  // Finish, then compare with the uninterrupted run.
+  const bool resume = fs::exists(fs::path(killed) / "checkpoint.pt");
+  ASSERT_EQ(wait_exit(spawn_mosyn(with_config(train_args(root + "/dataset", killed, resume)))), 0);
+  const nn::LoadedRun a = nn::load_run(whole, nn::LoadOptions{"checkpoint.pt", "cpu", 1});
+  const nn::LoadedRun b = nn::load_run(killed, nn::LoadOptions{"checkpoint.pt", "cpu", 1});
+  // A killed writer's temporary files are gone once the run has been resumed (RunLock).
+  for (const auto& entry : fs::directory_iterator(killed))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
+  EXPECT_EQ(a.step, 120);
+  EXPECT_EQ(b.step, 120);
+  auto pa = a.trainable->named_parameters(), pb = b.trainable->named_parameters();
+  for (const auto& kv : pa) EXPECT_TRUE(torch::equal(kv.value(), pb[kv.key()])) << kv.key();
+}
+
+}  // namespace
+}  // namespace mosyn
