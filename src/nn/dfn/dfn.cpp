@@ -156,8 +156,8 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
       z_se = z_se + (dyn->decode_z(s, h_t) - z_t).pow(2).mean(-1);
     }
     nll_m = nll_m - dyn->log_p_m(m_t, f, h_t);
-    kl_s = kl_s + dfn_kl_diag(qs.mean, qs.logvar, ps.mean, ps.logvar);
-    kl_f = kl_f + dfn_kl_diag(qf.mean, qf.logvar, pf.mean, pf.logvar);
+    kl_s = kl_s + diagonal_gaussian_kl(qs.mean, qs.logvar, ps.mean, ps.logvar);
+    kl_f = kl_f + diagonal_gaussian_kl(qf.mean, qf.logvar, pf.mean, pf.logvar);
     hs.push_back(h_t);
     ss.push_back(s);
     ps_mean.push_back(ps.mean);
@@ -179,10 +179,10 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     auto h1 = H.narrow(1, 0, n), h2 = H.narrow(1, delta, n), s2 = S.narrow(1, delta, n).detach();
     auto q = DfnDynamicsImpl::split(dyn->td_q_net->forward(torch::cat({s2, h1, h2}, -1)));
     auto s1 = reparameterise(q);
-    td_kl = dfn_kl_diag(q.mean, q.logvar, PM.narrow(1, 0, n), PL.narrow(1, 0, n)).mean();
+    td_kl = diagonal_gaussian_kl(q.mean, q.logvar, PM.narrow(1, 0, n), PL.narrow(1, 0, n)).mean();
     auto dt = torch::full({b, n, 1}, static_cast<double>(delta) / options_.td_max, opts);
     auto p = DfnDynamicsImpl::split(dyn->td_p_net->forward(torch::cat({s1, dt}, -1)));
-    td_nll = -dfn_log_normal(s2, p.mean, p.logvar).mean();
+    td_nll = -diagonal_gaussian_log_density(s2, p.mean, p.logvar).mean();
   }
   const double per = 1.0 / static_cast<double>(l);
   auto nz = (nll_z * per).mean(), nm = (nll_m * per).mean(), ks = (kl_s * per).mean(), kf = (kl_f * per).mean();

@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "nn/gaussian.h"
 #include "nn/model.h"
 
 namespace mosyn::nn {
@@ -73,13 +74,6 @@ struct DfnOptions {
 
 // MLP: n_hidden Linear + LeakyReLU layers of width `hidden`, then a Linear to `out`.
 torch::nn::Sequential dfn_mlp(int in, int hidden, int n_hidden, int out, double slope);
-
-// Closed-form KL(N(qm, exp(qlv)) || N(pm, exp(plv))) of diagonal Gaussians, summed over the last
-// dimension.
-torch::Tensor dfn_kl_diag(const torch::Tensor& qm, const torch::Tensor& qlv, const torch::Tensor& pm,
-                          const torch::Tensor& plv);
-// log N(x; mean, exp(logvar)) summed over the last dimension.
-torch::Tensor dfn_log_normal(const torch::Tensor& x, const torch::Tensor& mean, const torch::Tensor& logvar);
 
 // How the autoencoder's pose decoder makes pose features.
 enum class DfnPoseHead {

@@ -91,15 +91,6 @@ torch::nn::Sequential dfn_mlp(int in, int hidden, int n_hidden, int out, double 
   return s;
 }
 
-torch::Tensor dfn_kl_diag(const torch::Tensor& qm, const torch::Tensor& qlv, const torch::Tensor& pm,
-                          const torch::Tensor& plv) {
-  return 0.5 * (plv - qlv + (qlv.exp() + (qm - pm).pow(2)) / plv.exp() - 1.0).sum(-1);
-}
-
-torch::Tensor dfn_log_normal(const torch::Tensor& x, const torch::Tensor& mean, const torch::Tensor& logvar) {
-  return -0.5 * (kLog2Pi + logvar + (x - mean).pow(2) / logvar.exp()).sum(-1);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Autoencoder
 
@@ -292,12 +283,12 @@ DfnDynamicsImpl::DfnDynamicsImpl(const DfnOptions& o) {
 
 torch::Tensor DfnDynamicsImpl::log_p_z(const torch::Tensor& z, const torch::Tensor& s, const torch::Tensor& h) {
   auto mean = decode_z(s, h);
-  return dfn_log_normal(z, mean, (8.0 * torch::tanh(z_logvar / 8.0)).expand_as(mean));
+  return diagonal_gaussian_log_density(z, mean, (8.0 * torch::tanh(z_logvar / 8.0)).expand_as(mean));
 }
 
 torch::Tensor DfnDynamicsImpl::log_p_m(const torch::Tensor& m, const torch::Tensor& f, const torch::Tensor& h) {
   auto mean = decode_m(f, h);
-  return dfn_log_normal(m, mean, (8.0 * torch::tanh(m_logvar / 8.0)).expand_as(mean));
+  return diagonal_gaussian_log_density(m, mean, (8.0 * torch::tanh(m_logvar / 8.0)).expand_as(mean));
 }
 
 DfnDynamicsImpl::Gaussian DfnDynamicsImpl::split(const torch::Tensor& x) {

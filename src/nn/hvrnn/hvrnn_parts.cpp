@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "nn/gaussian.h"
 #include "nn/hvrnn/hvrnn.h"
 #include "nn/kinematics.h"
 #include "nn/options_fields.h"
@@ -147,8 +148,7 @@ torch::Tensor rot6d_validity(const torch::Tensor& r6) {
 
 torch::Tensor gaussian_kl(const torch::Tensor& mq, const torch::Tensor& sq, const torch::Tensor& mp,
                           const torch::Tensor& sp) {
-  auto vq = sq * sq, vp = sp * sp;
-  return (torch::log(sp / sq) + (vq + (mq - mp).pow(2)) / (2.0 * vp) - 0.5).sum(-1);
+  return diagonal_gaussian_kl(mq, 2.0 * torch::log(sq), mp, 2.0 * torch::log(sp));
 }
 
 }  // namespace hvrnn

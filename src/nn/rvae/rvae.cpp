@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "nn/config_json.h"
+#include "nn/gaussian.h"
 #include "nn/options_fields.h"
 #include "nn/label_features.h"
 
@@ -319,7 +320,7 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     // Steps after the first against the learned prior: KL of two diagonal Gaussians.
     const int64_t l = post.mean.size(1);
     auto qm = post.mean.narrow(1, 1, l - 1), qv = post.logvar.narrow(1, 1, l - 1);
-    auto kl_rest = 0.5 * (prior.second - qv + (qv.exp() + (qm - prior.first).pow(2)) / prior.second.exp() - 1.0).sum(-1);
+    auto kl_rest = diagonal_gaussian_kl(qm, qv, prior.first, prior.second);
     kl_steps = torch::cat({kl_steps.narrow(1, 0, 1), kl_rest}, 1);
   }
   if (use_latent.defined()) kl_steps = kl_steps * use_latent.to(kl_steps.dtype());  // unused latents cost nothing

@@ -169,16 +169,16 @@ TEST(Dfn, KlAndLogDensityMatchTheClosedFormByHand) {
   auto qm = torch::tensor({1.0, 0.3}, torch::kFloat64), qlv = torch::tensor({std::log(0.25), 0.2}, torch::kFloat64);
   auto pm = torch::tensor({-0.5, 0.3}, torch::kFloat64), plv = torch::tensor({std::log(4.0), 0.2}, torch::kFloat64);
   const double expected = std::log(4.0) + (0.25 + 2.25) / 8.0 - 0.5;
-  EXPECT_NEAR(dfn_kl_diag(qm, qlv, pm, plv).item<double>(), expected, 1e-12);
-  EXPECT_NEAR(dfn_kl_diag(qm, qlv, qm, qlv).item<double>(), 0.0, 1e-12);
+  EXPECT_NEAR(diagonal_gaussian_kl(qm, qlv, pm, plv).item<double>(), expected, 1e-12);
+  EXPECT_NEAR(diagonal_gaussian_kl(qm, qlv, qm, qlv).item<double>(), 0.0, 1e-12);
   // Monte Carlo agrees: E_q[log q - log p].
   torch::manual_seed(1);
   auto x = qm + torch::exp(0.5 * qlv) * torch::randn({200000, 2}, torch::kFloat64);
-  const double mc = (dfn_log_normal(x, qm, qlv) - dfn_log_normal(x, pm, plv)).mean().item<double>();
+  const double mc = (diagonal_gaussian_log_density(x, qm, qlv) - diagonal_gaussian_log_density(x, pm, plv)).mean().item<double>();
   EXPECT_NEAR(mc, expected, 0.01);
   // log N(0.5; 1, 0.25) = -0.5 log(2 pi 0.25) - 0.25 / (2 * 0.25)
   auto one = torch::tensor({0.5}, torch::kFloat64);
-  EXPECT_NEAR(dfn_log_normal(one, torch::tensor({1.0}, torch::kFloat64), torch::tensor({std::log(0.25)}, torch::kFloat64))
+  EXPECT_NEAR(diagonal_gaussian_log_density(one, torch::tensor({1.0}, torch::kFloat64), torch::tensor({std::log(0.25)}, torch::kFloat64))
                   .item<double>(),
               -0.5 * std::log(2 * M_PI * 0.25) - 0.5, 1e-12);
 }
