@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "io/file_name.h"
+
 namespace mosyn::cli {
 
 // A wrong flag value or flag combination found after parsing: exit code 2.
@@ -51,7 +53,6 @@ int default_threads();
 // "a, b,c" -> {"a", "b", "c"}: comma-separated items, spaces dropped, empty items skipped.
 std::vector<std::string> split_commas(const std::string& text);
 
-// Lower-case extension without the dot ("bvh" for "x/Walk.BVH"), "" when there is none.
-std::string extension_of(const std::string& path);
+using io::extension_of;  // io/file_name.h
 
 }  // namespace mosyn::cli

@@ -9,16 +9,11 @@
 #include "data/dataset.h"
 #include "data/prepare.h"
 #include "io/bvh.h"
+#include "io/file_name.h"
 
 namespace mosyn::nn {
 
 namespace {
-
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-  return ext;
-}
 
 void check_ranges(const SampleJobOptions& o) {
   const int sources = !o.path.empty() + !o.control_file.empty() + !o.data_dir.empty();
@@ -63,7 +58,7 @@ std::vector<float> given_control(const LoadedRun& run, const SampleJobOptions& o
   bool from_dataset = false;  // a dataset clip's or the continued file's own (already smoothed) control
   if (!o.control_file.empty()) {
     double heading = 0;
-    if (lower_extension(o.control_file) == ".csv")
+    if (io::extension_of(o.control_file) == "csv")
       control = data::control_from_csv(o.control_file);
     else
       control = data::control_from_clip(io::to_clip(io::read_bvh(o.control_file)), fps, &heading);
