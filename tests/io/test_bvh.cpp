@@ -15,12 +15,14 @@
 #include "core/error.h"
 #include "core/rotation.h"
 #include "io/atomic_file.h"
+#include "io_test_util.h"
 
 namespace mosyn::io {
 namespace {
 
 namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
+using testing::expect_same_structure;
 
 // Four joints: a 6-channel root (ZXY), a ZYX joint, an XYZ joint with an End Site, and a joint
 // with a mixed subset of channels. 14 channels per frame.
@@ -107,21 +109,6 @@ Eigen::Quaterniond product(std::initializer_list<std::pair<int, double>> axis_de
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   for (const auto& [axis, deg] : axis_degrees) q = q * quat_about_axis(axis, deg * kPi / 180);
   return q;
-}
-
-void expect_same_structure(const BvhFile& a, const BvhFile& b) {
-  ASSERT_EQ(a.skeleton.joint_names, b.skeleton.joint_names);
-  ASSERT_EQ(a.skeleton.parents, b.skeleton.parents);
-  ASSERT_EQ(a.channels, b.channels);
-  ASSERT_EQ(a.skeleton.end_sites.size(), b.skeleton.end_sites.size());
-  for (size_t e = 0; e < a.skeleton.end_sites.size(); ++e) {
-    EXPECT_EQ(a.skeleton.end_sites[e].parent, b.skeleton.end_sites[e].parent);
-    EXPECT_LT((a.skeleton.end_sites[e].offset - b.skeleton.end_sites[e].offset).norm(), 1e-9);
-  }
-  for (int j = 0; j < a.skeleton.num_joints(); ++j)
-    EXPECT_LT((a.skeleton.offsets[j] - b.skeleton.offsets[j]).norm(), 1e-6 * (1 + a.skeleton.offsets[j].norm()));
-  EXPECT_EQ(a.num_frames, b.num_frames);
-  EXPECT_NEAR(a.frame_time_s, b.frame_time_s, 1e-15);
 }
 
 // --- Parsing valid files ----------------------------------------------------------------------
@@ -637,127 +624,6 @@ TEST(Bvh, FromClipStaysContinuousThroughGimbalLock) {
           << "frame " << t << " channel " << c;
   const Clip back = to_clip(bvh);
   for (int t = 0; t < frames; ++t) EXPECT_LT(geodesic_angle(back.motion.rotation(t, 0), clip.motion.rotation(t, 0)), 1e-6) << t;
-}
-
-// --- Real data --------------------------------------------------------------------------------
-
-std::vector<fs::path> find_bvh_files(const fs::path& root) {
-  std::vector<fs::path> files;
-  if (!fs::is_directory(root)) return files;
-  for (const auto& entry : fs::recursive_directory_iterator(root))
-    if (entry.is_regular_file() && entry.path().extension() == ".bvh") files.push_back(entry.path());
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
-const fs::path kDataCache = MOSYN_DATA_CACHE;
-
-TEST(BvhRealData, EveryFileLoads) {
-  const std::vector<fs::path> cmu = find_bvh_files(kDataCache / "cmu-mocap-subset");
-  const std::vector<fs::path> bandai = find_bvh_files(kDataCache / "bandai-namco");
-  if (cmu.empty() && bandai.empty()) GTEST_SKIP() << "no unpacked data under " << kDataCache;
-  EXPECT_GE(cmu.size(), 80u);
-  EXPECT_GE(bandai.size(), 2000u);
-
-  struct Job {
-    const fs::path* path;
-    bool is_cmu;
-  };
-  std::vector<Job> jobs;
-  for (const fs::path& p : cmu) jobs.push_back({&p, true});
-  for (const fs::path& p : bandai) jobs.push_back({&p, false});
-  std::vector<std::string> failures(jobs.size());
-  std::vector<double> bytes(2, 0.0), parse_seconds(2, 0.0);
-  const auto start = std::chrono::steady_clock::now();
-  auto work = [&](int worker) {
-    for (size_t i = static_cast<size_t>(worker); i < jobs.size(); i += 2) {
-      const Job& job = jobs[i];
-      try {
-        const std::string text = read_file(job.path->string());
-        const auto t0 = std::chrono::steady_clock::now();
-        const BvhFile bvh = parse_bvh(text, job.path->string());
-        parse_seconds[worker] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        bytes[worker] += static_cast<double>(text.size());
-        const Skeleton& sk = bvh.skeleton;
-        const double fps = 1.0 / bvh.frame_time_s;
-        std::string problem;
-        if (bvh.num_frames < 1) problem += " no frames;";
-        if (job.is_cmu) {
-          if (sk.num_joints() != 31) problem += " joints=" + std::to_string(sk.num_joints()) + ";";
-          if (std::abs(fps - 120) > 0.01) problem += " fps=" + std::to_string(fps) + ";";
-          if (sk.joint_names[0] != "Hips" || bvh.channels[0].size() != 6) problem += " root;";
-        } else {
-          if (sk.num_joints() < 2 || sk.joint_names[0] != "joint_Root" || sk.joint_names[1] != "Hips") problem += " root;";
-          if (std::abs(fps - 30) > 0.01) problem += " fps=" + std::to_string(fps) + ";";
-          for (const BvhChannelLayout& c : bvh.channels)
-            if (c.size() != 6) problem += " channels;";
-        }
-        const Clip clip = to_clip(bvh);
-        clip.motion.validate();
-        if (!problem.empty()) failures[i] = job.path->string() + ":" + problem;
-      } catch (const std::exception& e) {
-        failures[i] = e.what();
-      }
-    }
-  };
-  std::thread other(work, 1);
-  work(0);
-  other.join();
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  int failed = 0;
-  for (const std::string& f : failures)
-    if (!f.empty() && failed++ < 20) ADD_FAILURE() << f;
-  EXPECT_EQ(failed, 0);
-  const double total_bytes = bytes[0] + bytes[1];
-  std::printf("[ info ] %zu files, %.0f MB in %.1f s wall (2 threads, read+parse+to_clip); parse_bvh alone %.0f MB/s per thread\n",
-              jobs.size(), total_bytes / 1e6, wall, total_bytes / 1e6 / (parse_seconds[0] + parse_seconds[1]));
-}
-
-void expect_real_round_trip(const fs::path& path) {
-  const BvhFile original = read_bvh(path.string());
-  const BvhFile again = parse_bvh(format_bvh(original), "again.bvh");
-  expect_same_structure(original, again);
-  ASSERT_EQ(again.values.size(), original.values.size());
-  for (size_t i = 0; i < original.values.size(); ++i)
-    ASSERT_NEAR(again.values[i], original.values[i], 1e-6 * std::max(1.0, std::abs(original.values[i]))) << i;
-
-  const Clip clip = to_clip(original);
-  const BvhFile rewritten = from_clip(clip, &original);
-  EXPECT_EQ(rewritten.channels, original.channels);
-  const Clip back = to_clip(parse_bvh(format_bvh(rewritten), "rewritten.bvh"));
-  double worst_angle = 0, worst_translation = 0;
-  for (size_t i = 0; i < clip.motion.rotations.size(); ++i) {
-    worst_angle = std::max(worst_angle, geodesic_angle(back.motion.rotations[i], clip.motion.rotations[i]));
-    worst_translation = std::max(worst_translation, (back.motion.translations[i] - clip.motion.translations[i]).norm());
-  }
-  EXPECT_LT(worst_angle, 1e-6) << path;
-  EXPECT_LT(worst_translation, 1e-4) << path;
-  // The rewritten angles stay continuous: no jumps of ~360 degrees between frames.
-  const size_t nc = static_cast<size_t>(rewritten.num_channels());
-  for (size_t t = 1; t < static_cast<size_t>(rewritten.num_frames); ++t)
-    for (int j = 0; j < rewritten.skeleton.num_joints(); ++j) {
-      size_t c = static_cast<size_t>(rewritten.first_channel(j));
-      for (BvhChannel ch : rewritten.channels[static_cast<size_t>(j)]) {
-        if (is_rotation(ch)) {
-          ASSERT_LT(std::abs(rewritten.values[t * nc + c] - rewritten.values[(t - 1) * nc + c]), 180.0) << path << " t=" << t;
-        }
-        ++c;
-      }
-    }
-}
-
-TEST(BvhRealData, CmuFileRoundTrips) {
-  const std::vector<fs::path> files = find_bvh_files(kDataCache / "cmu-mocap-subset");
-  if (files.empty()) GTEST_SKIP() << "no CMU data under " << kDataCache;
-  expect_real_round_trip(files.front());
-  expect_real_round_trip(files.back());
-}
-
-TEST(BvhRealData, BandaiFileRoundTrips) {
-  const std::vector<fs::path> files = find_bvh_files(kDataCache / "bandai-namco");
-  if (files.empty()) GTEST_SKIP() << "no Bandai-Namco data under " << kDataCache;
-  expect_real_round_trip(files.front());
-  expect_real_round_trip(files[files.size() / 2]);
 }
 
 }  // namespace
