@@ -2,9 +2,13 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/mount.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 #include <thread>
@@ -164,6 +168,45 @@ TEST(AtomicFile, DevicesAndPipesAreWrittenInPlace) {
   EXPECT_TRUE(S_ISFIFO(st.st_mode));
   ::unlink(fifo.c_str());
   EXPECT_THROW(write_file_atomically(std::filesystem::temp_directory_path().string(), "x"), Error);
+}
+
+// A full disk while writing: the write fails with an error naming the file, the old content
+// stays under the final name and no temporary file is left behind. Shown with a 64 KiB tmpfs
+// (needs root to mount; skipped otherwise) and, everywhere, with a file-size limit (RLIMIT_FSIZE
+// makes write(2) fail with EFBIG once the file would pass it, the same error path as ENOSPC).
+void expect_failed_write_keeps_old_file(const fs::path& dir) {
+  const std::string path = (dir / "data.bin").string();
+  write_file_atomically(path, "old content");
+  try {
+    write_file_atomically(path, std::string(3u << 20, 'x'));
+    ADD_FAILURE() << "writing 3 MiB did not fail";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(read_file(path), "old content");
+  EXPECT_EQ(count_entries(dir), 1u);
+}
+
+TEST(AtomicFile, FullDiskIsAnErrorAndNeverACorruptFile) {
+  const fs::path dir = make_temp_dir("atomic_full");
+  if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, "size=64k") == 0) {
+    expect_failed_write_keeps_old_file(dir);
+    EXPECT_EQ(::umount(dir.c_str()), 0);
+  } else {
+    std::printf("[ info ] tmpfs mount not permitted here; only the file-size-limit case runs\n");
+  }
+  rlimit saved{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &saved), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = saved;
+  small.rlim_cur = 64 * 1024;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  expect_failed_write_keeps_old_file(dir);
+  ::setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, old_handler);
+  // A device that is always full.
+  if (fs::exists("/dev/full")) EXPECT_THROW(write_file_atomically("/dev/full", "x"), Error);
+  fs::remove_all(dir);
 }
 
 }  // namespace
