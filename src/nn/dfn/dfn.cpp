@@ -104,12 +104,21 @@ LossTerms DfnImpl::future_loss(const Batch& batch) {
   check_batch(batch, options_.horizon + 1);
   const int64_t h = options_.horizon, k = options_.code;
   auto z = codes(batch.pose, batch.control).detach();
-  auto windows = future_windows(z).reshape({-1, h, k});  // [N, H, code]
+  auto x = torch::cat({ae->raw_pose(batch.pose), batch.control}, -1);
+  auto z_win = future_windows(z);  // [B, T - H, H, code]
+  auto x_win = future_windows(x);
+  const int64_t starts = z_win.size(1);
+  if (options_.future_starts > 0 && starts > options_.future_starts) {
+    // An unbiased subset of the start frames (the same for every window of the batch).
+    auto pick = torch::randperm(starts, torch::kLong).narrow(0, 0, options_.future_starts).to(z.device());
+    z_win = z_win.index_select(1, pick);
+    x_win = x_win.index_select(1, pick);
+  }
+  auto windows = z_win.reshape({-1, h, k});  // [N, H, code]
+  x_win = x_win.reshape({-1, h, x.size(-1)});
   auto rec = future->reconstruct(future->embed(windows), h);
   auto rec_loss = (rec - windows).pow(2).mean();
   // L_smooth: velocities (frame differences) of the decoded reconstruction against the data's.
-  auto x = torch::cat({ae->raw_pose(batch.pose), batch.control}, -1);
-  auto x_win = future_windows(x).reshape({-1, h, x.size(-1)});
   auto dec = ae->decode(rec);
   auto x_hat = torch::cat({ae->raw_pose(dec.pose), dec.control}, -1);
   torch::Tensor smooth = torch::zeros({}, rec_loss.options());

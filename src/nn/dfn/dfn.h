@@ -59,6 +59,10 @@ struct DfnOptions {
   double velocity_weight = 1.0;  // Eq. 2, root velocity (control)
   double fk_weight = 1.0;        // Eq. 2, joint positions (metres) after FK (rotation features)
   double smooth_weight = 1.0;    // Eq. 3, L_smooth
+  // Future stage: start frames per training window whose H-frame futures enter the loss, drawn
+  // at random each step (0 = all T - H). Every start costs an H-frame decode through FK, so all
+  // 190 of a 200-frame window made this stage 10x slower per step than the others.
+  int future_starts = 32;
   double kl_weight = 1.0;        // KL terms of Eq. 15
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15

@@ -56,6 +56,8 @@ const OptionFields<DfnOptions>& dfn_fields() {
           .field("velocity_weight", &O::velocity_weight, "Eq. 2 root-velocity weight", at_least(0.0))
           .field("fk_weight", &O::fk_weight, "Eq. 2 joint-position weight (rotation features)", at_least(0.0))
           .field("smooth_weight", &O::smooth_weight, "Eq. 3 smoothness weight", at_least(0.0))
+          .field("future_starts", &O::future_starts, "future stage: random start frames per window (0 = all)",
+                 at_least(0))
           .field("kl_weight", &O::kl_weight, "weight of the KL terms", at_least(0.0))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
@@ -109,6 +111,8 @@ DfnPoseHead choose_head(const DfnOptions& o, const ModelContext& c) {
       return DfnPoseHead::kPlain;
     case data::PoseForm::kPositions:
       return c.pose_dim == 3 * j ? DfnPoseHead::kPositionsFk : DfnPoseHead::kPlain;
+    case data::PoseForm::kMarkers:
+      return DfnPoseHead::kPlain;  // no FK head for markers
   }
   return DfnPoseHead::kPlain;
 }
