@@ -1,5 +1,6 @@
 // `mosyn info` and `mosyn convert`.
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -12,6 +13,7 @@
 #include "data/control.h"
 #include "io/bvh.h"
 #include "io/csv.h"
+#include "io/gltf.h"
 #include "io/json_file.h"
 #include "io/npy.h"
 
@@ -54,14 +56,15 @@ struct ConvertOptions {
 
 void run_convert(const ConvertOptions& o) {
   const std::string ext = extension_of(o.output);
-  if (ext != "bvh" && ext != "npy" && ext != "csv" && ext != "json")
-    throw UsageError("output '" + o.output + "' must end in .bvh, .npy, .csv or .json");
+  const bool gltf = ext == "glb" || ext == "gltf";
+  if (ext != "bvh" && ext != "npy" && ext != "csv" && ext != "json" && !gltf)
+    throw UsageError("output '" + o.output + "' must end in .bvh, .glb, .gltf, .npy, .csv or .json");
   if (o.control && (ext != "csv" || o.positions))
     throw UsageError("--control writes the root control as CSV: give an output ending in .csv and no --positions");
   if (ext == "npy" && !o.positions) throw UsageError(".npy outputs hold world joint positions: add --positions");
   if (ext == "csv" && !o.positions && !o.control)
     throw UsageError(".csv outputs hold world joint positions (--positions) or the root control (--control)");
-  if (ext == "bvh" && o.positions) throw UsageError("--positions does not apply to .bvh output");
+  if ((ext == "bvh" || gltf) && o.positions) throw UsageError("--positions does not apply to ." + ext + " output");
   if (o.fps < 0) throw UsageError("--fps must be positive");
 
   const io::BvhFile bvh = io::read_bvh(o.input);
@@ -82,6 +85,15 @@ void run_convert(const ConvertOptions& o) {
   if (ext == "bvh") {
     // Keep the source's channel layout when the joints are the same.
     io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));
+    return;
+  }
+  if (gltf) {
+    io::GltfOptions gltf_options;
+    gltf_options.meters_per_unit = resolve_meters_per_unit(clip.skeleton);
+    const std::string name = std::filesystem::path(o.input).stem().string();
+    io::write_gltf(o.output, clip.skeleton, {{name, clip.motion}}, gltf_options);
+    std::fprintf(stderr, "wrote %s: %d joints, %d frames at %g fps, %.4g m per unit, Y up\n", o.output.c_str(),
+                 clip.skeleton.num_joints(), clip.motion.num_frames, clip.motion.fps, gltf_options.meters_per_unit);
     return;
   }
   const double scale = o.metres ? resolve_meters_per_unit(clip.skeleton) : 1.0;
@@ -131,9 +143,11 @@ void add_info_command(CLI::App& app, Action* action) {
 void add_convert_command(CLI::App& app, Action* action) {
   auto o = std::make_shared<ConvertOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "convert", "Convert a BVH file to BVH (resampled / fewer joints), or world joint positions as NPY, CSV or JSON");
+      "convert",
+      "Convert a BVH file to BVH (resampled / fewer joints), glTF (.glb/.gltf: skinned body and animation, metres, "
+      "Y up, for Blender, game engines, three.js), or world joint positions as NPY, CSV or JSON");
   cmd->add_option("input", o->input, "input BVH file")->required();
-  cmd->add_option("output", o->output, "output file: .bvh, .npy, .csv or .json")->required();
+  cmd->add_option("output", o->output, "output file: .bvh, .glb, .gltf, .npy, .csv or .json")->required();
   cmd->add_option("--fps", o->fps, "resample to this frame rate (slerp)");
   cmd->add_option("--joints", o->joints, "keep only joints matching these comma-separated names/globs (+ the root)");
   cmd->add_option("--drop-joints", o->drop_joints, "drop joints matching these comma-separated globs, e.g. '*Thumb*'");

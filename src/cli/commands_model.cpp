@@ -17,6 +17,7 @@
 #include "data/prepare.h"
 #include "io/atomic_file.h"
 #include "io/bvh.h"
+#include "io/gltf.h"
 #include "io/json_file.h"
 #include "io/npy.h"
 #include "nn/checkpoint.h"
@@ -164,6 +165,7 @@ struct SampleArgs {
   double observed_s = 1.0;
   int observed_frames = -1;
   bool foot_lock = false;
+  std::string format = "bvh";  // comma-separated: bvh, glb, gltf
 };
 
 nn::SampleJobOptions job_options(const SampleArgs& a) {
@@ -188,7 +190,40 @@ nn::SampleJobOptions job_options(const SampleArgs& a) {
   return o;
 }
 
+struct SampleFormats {
+  bool bvh = false;
+  std::string gltf_ext;  // "glb", "gltf" or "" for none
+};
+
+// --format "bvh,glb": BVH files, and/or one glTF file holding every motion as an animation.
+SampleFormats parse_sample_formats(const std::string& text) {
+  SampleFormats f;
+  for (const std::string& item : split_commas(text)) {
+    if (item == "bvh") {
+      f.bvh = true;
+    } else if (item == "glb" || item == "gltf") {
+      if (!f.gltf_ext.empty() && f.gltf_ext != item) throw UsageError("--format: give glb or gltf, not both");
+      f.gltf_ext = item;
+    } else {
+      throw UsageError("--format: unknown format '" + item + "' (bvh, glb, gltf)");
+    }
+  }
+  if (!f.bvh && f.gltf_ext.empty()) throw UsageError("--format: give at least one of bvh, glb, gltf");
+  return f;
+}
+
+void write_sample_gltf(const std::string& path, const std::vector<nn::SampledClip>& sampled, const std::string& prefix) {
+  std::vector<io::GltfMotion> motions;
+  for (size_t i = 0; i < sampled.size(); ++i) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%03zu", prefix.c_str(), i);
+    motions.push_back({name, sampled[i].clip.motion});
+  }
+  io::write_gltf(path, sampled.front().clip.skeleton, motions);
+}
+
 void run_sample(const SampleArgs& a) {
+  const SampleFormats formats = parse_sample_formats(a.format);  // usage errors before the model loads
   const nn::SampleJobOptions options = job_options(a);
   nn::LoadOptions load;
   load.checkpoint = a.checkpoint;
@@ -199,13 +234,14 @@ void run_sample(const SampleArgs& a) {
   const double fps = run.dataset.fps;
   const int total_frames = sampled.front().clip.motion.num_frames;
   std::filesystem::create_directories(a.out_dir);
+  const std::string gltf_name = formats.gltf_ext.empty() ? "" : a.prefix + "." + formats.gltf_ext;
   for (int i = 0; i < a.n; ++i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
     const Clip& clip = sampled[i].clip;
     const FootLockReport& lock = sampled[i].foot_lock;
-    io::write_bvh(base + ".bvh", io::from_clip(clip));
+    if (formats.bvh) io::write_bvh(base + ".bvh", io::from_clip(clip));
     if (a.positions) {
       io::write_positions_npy(base + ".npy", total_frames, clip.skeleton.num_joints(),
                               forward_kinematics(clip.skeleton, clip.motion).positions, clip.skeleton.meters_per_unit);
@@ -229,8 +265,10 @@ void run_sample(const SampleArgs& a) {
                                                                          {"max_correction_m", lock.max_correction_m}}
                                                         : nlohmann::json(nullptr)},
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
+    if (!gltf_name.empty()) sidecar["gltf"] = {{"file", gltf_name}, {"animation", i}};
     io::write_json(base + ".json", sidecar);
   }
+  if (!gltf_name.empty()) write_sample_gltf((std::filesystem::path(a.out_dir) / gltf_name).string(), sampled, a.prefix);
   const int observed = plan.observed_frames;
   std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s%s) to %s\n", a.n, total_frames, (total_frames - 1) / fps,
                observed > 0 ? (", the first " + std::to_string(observed) + " observed").c_str() : "", a.out_dir.c_str());
@@ -328,6 +366,10 @@ void add_sample_command(CLI::App& app, Action* action) {
   sample->add_option("--observed-frames", s->observed_frames,
                      "--continue: frames of the file observed (overrides --observed; e.g. 4 as Habibie et al.)");
   sample->add_option("--prefix", s->prefix, "output file name prefix")->capture_default_str();
+  sample->add_option("--format", s->format,
+                     "comma-separated: bvh (PREFIX_000.bvh ...), glb or gltf (one PREFIX.glb with every motion as an "
+                     "animation of a skinned body, metres, Y up)")
+      ->capture_default_str();
   sample->add_flag("--foot-lock", s->foot_lock,
                    "post-process: pin each foot contact to one floor position by two-bone IK (off: the model's raw "
                    "motion)");

@@ -7,6 +7,7 @@
 #include "cli_test_util.h"
 #include "core/synthetic.h"
 #include "data/control.h"
+#include "io/atomic_file.h"
 #include "io/bvh.h"
 #include "io/npy.h"
 
@@ -132,6 +133,20 @@ TEST(CliTest, ConvertRejectsUnknownExtensionAndMissingPositions) {
   EXPECT_EQ(run_mosyn("convert " + in + " " + (dir / "walk.txt").string()).exit_code, 2);
   EXPECT_EQ(run_mosyn("convert " + in + " " + (dir / "walk.npy").string()).exit_code, 2);
   EXPECT_FALSE(std::filesystem::exists(dir / "walk.npy"));
+}
+
+TEST(CliTest, ConvertWritesGlbAndGltf) {
+  const auto dir = fresh_dir("gltf");
+  const std::string in = write_walk_bvh(dir), glb = (dir / "walk.glb").string(), gltf = (dir / "walk.gltf").string();
+  const auto r = run_mosyn("convert " + in + " " + glb + " --fps 15");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("0.01 m per unit"));
+  EXPECT_EQ(io::read_file(glb).substr(0, 4), "glTF");
+  ASSERT_EQ(run_mosyn("convert " + in + " " + gltf).exit_code, 0);
+  const std::string json = io::read_file(gltf);
+  EXPECT_THAT(json, HasSubstr("\"name\":\"walk\""));  // the animation, named as the file
+  EXPECT_THAT(json, HasSubstr("\"name\":\"Hips\""));  // joint nodes named as the BVH joints
+  EXPECT_EQ(run_mosyn("convert " + in + " " + glb + " --positions").exit_code, 2);
 }
 
 }  // namespace

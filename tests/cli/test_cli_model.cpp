@@ -7,6 +7,7 @@
 
 #include "cli_test_util.h"
 #include "data/prepare.h"
+#include "io/atomic_file.h"
 #include "io/bvh.h"
 #include "io/json_file.h"
 #include "io/npy.h"
@@ -86,6 +87,20 @@ TEST_F(CliModelTest, SampleWritesBvhNpyAndSidecars) {
     EXPECT_EQ(sidecar["model"]["family"], "moglow");
     EXPECT_EQ(sidecar["control"]["kind"], "path");
   }
+}
+
+TEST_F(CliModelTest, SampleFormatGlbWritesEveryMotionAsAnAnimationOfOneFile) {
+  const std::string out = *root_ + "/glb";
+  const auto r = run_mosyn("sample " + *root_ + "/run --out " + out +
+                           " --n 2 --seed 7 --seconds 2 --format glb --prefix walk --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string glb = io::read_file(out + "/walk.glb");
+  EXPECT_EQ(glb.substr(0, 4), "glTF");
+  EXPECT_NE(glb.find("\"name\":\"walk_000\""), std::string::npos);
+  EXPECT_NE(glb.find("\"name\":\"walk_001\""), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(out + "/walk_000.bvh"));  // only the formats asked for
+  EXPECT_EQ(io::read_json(out + "/walk_001.json")["gltf"]["animation"], 1);
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + out + " --format fbx").exit_code, 2);
 }
 
 TEST_F(CliModelTest, SameSeedSameFilesDifferentSeedDifferentFiles) {
