@@ -19,8 +19,9 @@ clip="$bandai/data/dataset-2_walk-turn-left_normal_001.bvh"
 echo "== mosyn info"
 "$mosyn" info "$clip"
 
-echo "== mosyn convert: BVH (resampled to 15 fps), world positions as NPY and CSV"
+echo "== mosyn convert: BVH (resampled to 15 fps), glTF for Blender and game engines, world positions as NPY and CSV"
 "$mosyn" convert "$clip" "$out/walk-turn-left_15fps.bvh" --fps 15
+"$mosyn" convert "$out/walk-turn-left_15fps.bvh" "$out/walk-turn-left_15fps.glb"
 "$mosyn" convert "$clip" "$out/walk-turn-left_positions.npy" --positions
 "$mosyn" convert "$clip" "$out/walk-turn-left_positions.csv" --positions
 
@@ -37,7 +38,7 @@ if [ -f "$model/checkpoint.pt" ]; then
   echo "== mosyn sample: walks along one curved path from the shipped MoGlow model, in two styles"
   for style in normal elderly; do
     "$mosyn" sample "$model" --out "$out/curve" --prefix "curve-$style" --n 2 --seed 1 \
-      --path "0,0 0,3 2,5 5,5 7,3" --content walk --style "$style" --positions
+      --path "0,0 0,3 2,5 5,5 7,3" --content walk --style "$style" --positions --format bvh,glb
   done
   echo "== mosyn sample: stop and go (stand 2 s at two corners), and stand still for 3 s then walk"
   "$mosyn" sample "$model" --out "$out/stop-and-go" --prefix stop-and-go --n 2 --seed 3 \
@@ -73,4 +74,7 @@ fi
 echo
 echo "demo: wrote $(find "$out" -type f | wc -l) files to $out/ and the dataset to $dataset"
 [ -f "$out/viewer.html" ] && echo "demo: open file://$(cd "$out" && pwd)/viewer.html in a browser to watch the samples"
+for glb in "$out"/walk-turn-left_15fps.glb "$out"/curve/curve-normal.glb; do
+  [ -f "$glb" ] && echo "demo: $glb: glTF beside its BVH (skinned body, one animation per motion, metres, Y up) for Blender, game engines, three.js"
+done
 exit 0
