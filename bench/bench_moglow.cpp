@@ -2,8 +2,9 @@
 // batch 1 and 64, for
 //   shipped  K=8, hidden 128, tau=10 on Bandai-Namco joint rotations, D=127 (the first shipped
 //            model; models/moglow-locomotion now has this network on D=63 positions + 11 labels)
-//   k8_h128  the same network on D=63 (21 joint positions), as the public reference measured;
-//            the shipped model's size up to its 11 label inputs
+//   k8_h128  the same network on D=63 (21 joint positions): the shipped model's size up to its
+//            11 label inputs. Not the public PyTorch code's "K=8 / hidden 128", which always builds
+//            two LSTM layers per coupling (bench/README.md has the side-by-side figures)
 //   paper    the paper config (K=16, two 512-unit LSTM layers, tau=10) on D=63
 // C=3. LibTorch runs with 2 threads (MOSYN_BENCH_THREADS overrides). Also a 1024^2 float
 // matmul to confirm the BLAS backend.

@@ -44,6 +44,23 @@ struct GeneratorOptions {
                             // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };
 
+// One character of a crowd, started in a slot by Generator::add.
+struct CharacterOptions {
+  std::uint64_t seed = 0;  // its noise: same seed, labels, prefix and controls = same motion
+  int content = -1;        // label indices into the run's vocabularies, -1 = none
+  int style = -1;
+  std::vector<float> prefix_pose;     // optional raw [P, D]: motion it continues
+  std::vector<float> prefix_control;  // optional raw [P, C]
+};
+
+// What a game engine poses a character with after a step: every joint's rotation relative to its
+// parent and the root joint's translation, on the run's skeleton (run().dataset.skeleton: joint
+// order, parents, rest offsets in skeleton units; BVH conventions, y up).
+struct JointTransforms {
+  std::vector<float> rotations_wxyz;  // [J, 4] unit quaternions (w, x, y, z), local to the parent
+  Eigen::Vector3d root_translation = Eigen::Vector3d::Zero();  // root joint in the world, skeleton units
+};
+
 // Floor position (skeleton units, up coordinate 0) and heading (radians) of a character's root.
 struct RootPose {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
@@ -67,8 +84,29 @@ class Generator {
   // moves the root then. Returns raw pose [B, D].
   std::vector<float> step(const std::vector<float>& control);
 
-  // Restarts the stream (states, history, root poses) with a new seed.
+  // Restarts the stream (states, history, root poses) with a new seed: character k's seed is
+  // row_seed(seed, k) (nn/model.h; character 0's is `seed` itself), every slot active.
   void reset(std::uint64_t seed);
+
+  // Starts character `slot` afresh, replacing whoever was there: its own seed, labels and optional
+  // prefix, warmed up for GeneratorOptions::warmup_frames, root at the origin facing heading 0,
+  // control shaping and foot lock restarted. From then on its frames are those of a Generator of
+  // batch 1 started with the same seed, labels and prefix and given the same controls: they depend
+  // on nothing else in the batch, up to float rounding (BLAS kernels round a row differently in
+  // matrices of other heights: ~1e-6 relative per frame); in the same slots of the same batch a
+  // character replays bit for bit. Costs the prefix and warm-up frames
+  // of one character. Throws mosyn::Error for a slot outside [0, batch) or a family whose rows are
+  // not independent (ModelTraits::independent_rows).
+  void add(int slot, const CharacterOptions& character);
+  // Frees a slot: it keeps being computed (the batch keeps its size and the other characters are
+  // unaffected) with zero control, and step() returns zeros for it, until add() fills it again.
+  void remove(int slot);
+  bool active(int slot) const;
+
+  // The engine-facing pose of character `slot` after the last step (data::decode of its raw pose
+  // at its root; for joint-position models the rotations are solved from the positions). Before
+  // the first step: the rest pose.
+  JointTransforms joint_transforms(int slot) const;
 
   int batch() const;
   int pose_dim() const;

@@ -29,6 +29,19 @@ StreamFrame MotionModel::step_stream(StreamState&, const torch::Tensor&) {
   throw Error("model family '" + family() + "' cannot generate frame by frame (not causal)");
 }
 
+void MotionModel::copy_stream_row(StreamState&, int64_t, const StreamState&, int64_t) {
+  throw Error("model family '" + family() + "' cannot move one character between streams (its batch is one state)");
+}
+
+std::uint64_t row_seed(std::uint64_t seed, int64_t row) {
+  if (row == 0) return seed;
+  // splitmix64 of the pair: nearby seeds and rows give unrelated streams.
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(row + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
 namespace {
 
 std::mutex& registry_mutex() {

@@ -40,6 +40,10 @@ struct SampleRequest {
   torch::Tensor style;           // optional [B] int64 labels, -1 = none
   double temperature = 1.0;      // standard deviation multiplier of the latent noise
   std::uint64_t seed = 0;        // seeds a private generator: same seed + inputs = same output
+  // Optional per-character seeds (B entries). Families that draw each character's noise from its
+  // own generator (ModelTraits::independent_rows) seed row k with seeds[k], else with
+  // row_seed(seed, k); other families use `seed` alone.
+  std::vector<std::uint64_t> seeds;
   int batch = 0;                 // for begin_stream only: batch size B when no tensor gives it
 };
 
@@ -85,7 +89,17 @@ class MotionModel : public TrainableModel {
   // Advances a stream by one frame: control [B, C] standardised of the new frame t (the delta
   // t-1 -> t; undefined for families that generate their root motion) gives frame t.
   virtual StreamFrame step_stream(StreamState& state, const torch::Tensor& control);
+  // Replaces row dst_row of stream dst by row src_row of stream src (both from begin_stream of
+  // this model, possibly of different batch sizes): the character's whole state (history,
+  // recurrent state, labels, noise generator) moves, so it continues exactly as it would have in
+  // src. Lets a runtime add a character to a running batch. Families without per-row state throw
+  // mosyn::Error (the default).
+  virtual void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row);
 };
+
+// Seed of row `row` of a batch drawn from one seed: the seed itself for row 0 (so a batch of one
+// equals a character started alone with that seed), a splitmix64 mix of both for the others.
+std::uint64_t row_seed(std::uint64_t seed, int64_t row);
 
 // Builds a motion model of a registered family (nn/registry.h) from a (possibly partial) config;
 // missing keys take the family's defaults; a "preset" key selects a named set of defaults first.

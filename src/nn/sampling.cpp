@@ -138,6 +138,8 @@ struct Generator::Impl {
   std::vector<double> shaped, shaped_rate;
   std::vector<float> last_control;
   std::vector<StreamingFootLock> foot_locks;  // per character, with options.foot_lock
+  std::vector<char> active;       // per slot: filled (add / start) or free (remove)
+  std::vector<float> last_pose;   // raw [B, D] of the last step (zeros for free slots)
 
   // Pins the planted feet of character k's raw pose [D] in place (GeneratorOptions::foot_lock).
   void lock_feet(int k, float* pose) {
@@ -185,24 +187,35 @@ struct Generator::Impl {
     start(options.seed);
   }
 
-  void start(std::uint64_t seed) {
+  // A stream of b characters with the given prefix, labels and seeds, warmed up.
+  std::unique_ptr<StreamState> begin(int b, const std::vector<float>& prefix_pose,
+                                     const std::vector<float>& prefix_control, const std::vector<int>& content,
+                                     const std::vector<int>& style, std::vector<std::uint64_t> seeds) {
     SampleRequest req;
-    fill_request(req, run, st, options.batch, options.prefix_pose, options.prefix_control, options.content,
-                 options.style);
+    fill_request(req, run, st, b, prefix_pose, prefix_control, content, style);
     if (req.prefix_pose.defined()) req.prefix_pose = req.prefix_pose.to(device);
     if (req.prefix_control.defined()) req.prefix_control = req.prefix_control.to(device);
     req.content = req.content.to(device);
     req.style = req.style.to(device);
     req.temperature = options.temperature;
-    req.seed = seed;
-    stream = run.model->begin_stream(req);
+    req.seed = seeds.front();
+    if (run.traits.independent_rows) req.seeds = std::move(seeds);
+    auto s = run.model->begin_stream(req);
     // Standing warm-up (see SampleExtras::warmup_frames): zero raw control, outputs dropped.
-    if (options.warmup_frames > 0) {
-      const auto still = st.control(torch::zeros({options.batch, run.context.control_dim})).to(device);
-      if (run.traits.control == InputUse::kTakes)
-        for (int k = 0; k < options.warmup_frames; ++k) run.model->step_stream(*stream, still);
+    if (options.warmup_frames > 0 && run.traits.control == InputUse::kTakes) {
+      const auto still = st.control(torch::zeros({b, run.context.control_dim})).to(device);
+      for (int k = 0; k < options.warmup_frames; ++k) run.model->step_stream(*s, still);
     }
+    return s;
+  }
+
+  void start(std::uint64_t seed) {
+    std::vector<std::uint64_t> seeds;
+    for (int k = 0; k < options.batch; ++k) seeds.push_back(row_seed(seed, k));
+    stream = begin(options.batch, options.prefix_pose, options.prefix_control, options.content, options.style, seeds);
     roots.assign(options.batch, RootPose{});
+    active.assign(options.batch, 1);
+    last_pose.assign(static_cast<size_t>(options.batch) * run.context.pose_dim, 0.0f);
     frames = 0;
     const size_t values = static_cast<size_t>(options.batch) * run.context.control_dim;
     shaped.assign(values, 0.0);
@@ -232,11 +245,14 @@ std::vector<float> Generator::step(const std::vector<float>& given) {
   if (takes_control ? given.size() != static_cast<size_t>(b * c) : !given.empty())
     throw Error(takes_control ? "Generator::step: control must be [" + std::to_string(b) + ", " + std::to_string(c) + "]"
                               : "Generator::step: this " + m.run.family + " model makes its own root motion; give no control");
-  for (float v : given)
-    if (!std::isfinite(v)) throw Error("Generator::step: the control holds a NaN or infinite value");
+  for (size_t i = 0; i < given.size(); ++i)
+    if (m.active[i / c] && !std::isfinite(given[i]))
+      throw Error("Generator::step: the control holds a NaN or infinite value");
   torch::Tensor pose;
   if (takes_control) {
     m.last_control = given;
+    for (int64_t k = 0; k < b; ++k)  // free slots stand still, whatever the caller passes for them
+      if (!m.active[k]) std::fill_n(m.last_control.begin() + k * c, c, 0.0f);
     m.shape(m.last_control);
     auto ctrl = m.st.control(from_vector(m.last_control, b, c)).to(m.device);
     pose = m.run.model->step_stream(*m.stream, ctrl).pose;
@@ -264,11 +280,71 @@ std::vector<float> Generator::step(const std::vector<float>& given) {
   ++m.frames;
   float* p = pose.data_ptr<float>();
   if (m.options.foot_lock)
-    for (int64_t k = 0; k < b; ++k) m.lock_feet(static_cast<int>(k), p + k * d);
-  return std::vector<float>(p, p + b * d);
+    for (int64_t k = 0; k < b; ++k)
+      if (m.active[k]) m.lock_feet(static_cast<int>(k), p + k * d);
+  m.last_pose.assign(p, p + b * d);
+  for (int64_t k = 0; k < b; ++k)
+    if (!m.active[k]) std::fill_n(m.last_pose.begin() + k * d, d, 0.0f);
+  return m.last_pose;
 }
 
 void Generator::reset(std::uint64_t seed) { impl_->start(seed); }
+
+void Generator::add(int slot, const CharacterOptions& character) {
+  auto& m = *impl_;
+  if (slot < 0 || slot >= m.options.batch)
+    throw Error("Generator::add: slot " + std::to_string(slot) + " is not in [0, " + std::to_string(m.options.batch) + ")");
+  if (!m.run.traits.independent_rows)
+    throw Error("Generator::add: the " + m.run.family + " family computes its batch as one state; characters "
+                "cannot be added one by one (use reset)");
+  auto one = m.begin(1, character.prefix_pose, character.prefix_control, {character.content}, {character.style},
+                     {character.seed});
+  m.run.model->copy_stream_row(*m.stream, slot, *one, 0);
+  m.roots[slot] = RootPose{};
+  const int64_t c = m.run.context.control_dim, d = m.run.context.pose_dim;
+  std::fill_n(m.shaped.begin() + slot * c, c, 0.0);
+  std::fill_n(m.shaped_rate.begin() + slot * c, c, 0.0);
+  std::fill_n(m.last_control.begin() + slot * c, c, 0.0f);
+  std::fill_n(m.last_pose.begin() + slot * d, d, 0.0f);
+  if (m.options.foot_lock)
+    m.foot_locks[slot] = StreamingFootLock(m.run.dataset.skeleton, m.run.dataset.fps, m.options.foot_lock_options);
+  m.active[slot] = 1;
+}
+
+void Generator::remove(int slot) {
+  auto& m = *impl_;
+  if (slot < 0 || slot >= m.options.batch)
+    throw Error("Generator::remove: slot " + std::to_string(slot) + " is not in [0, " + std::to_string(m.options.batch) + ")");
+  m.active[slot] = 0;
+  const int64_t c = m.run.context.control_dim;  // stands still at once: no shaped control left
+  std::fill_n(m.shaped.begin() + slot * c, c, 0.0);
+  std::fill_n(m.shaped_rate.begin() + slot * c, c, 0.0);
+}
+
+bool Generator::active(int slot) const { return impl_->active.at(slot) != 0; }
+
+JointTransforms Generator::joint_transforms(int slot) const {
+  const auto& m = *impl_;
+  const auto& info = m.run.dataset;
+  const int64_t d = m.run.context.pose_dim;
+  const RootPose& r = m.roots.at(slot);
+  JointTransforms out;
+  Motion frame;
+  if (m.frames == 0 || !m.active[slot]) {
+    frame = Motion::rest(info.skeleton, 1, info.fps);
+  } else {
+    const std::vector<float> still(static_cast<size_t>(m.run.context.control_dim), 0.0f);
+    frame = data::decode(info.skeleton, info.layout, m.last_pose.data() + slot * d, still.data(), 1, info.fps,
+                         r.position, r.heading_rad);
+  }
+  out.rotations_wxyz.reserve(static_cast<size_t>(frame.num_joints) * 4);
+  for (int j = 0; j < frame.num_joints; ++j) {
+    const auto& q = frame.rotation(0, j);
+    out.rotations_wxyz.insert(out.rotations_wxyz.end(), {float(q.w()), float(q.x()), float(q.y()), float(q.z())});
+  }
+  if (frame.num_joints > 0) out.root_translation = frame.translation(0, 0);
+  return out;
+}
 int Generator::batch() const { return impl_->options.batch; }
 int Generator::pose_dim() const { return impl_->run.context.pose_dim; }
 int Generator::control_dim() const { return impl_->run.context.control_dim; }

@@ -21,6 +21,11 @@ struct ModelTraits {
   bool labels = false;     // content / style labels condition the motion (SampleRequest::content, style)
   bool prefix = false;     // continues a given motion (SampleRequest::prefix_pose / prefix_control)
   bool streaming = false;  // frame-by-frame generation with no algorithmic latency (begin_stream)
+  // Each character of a batch is computed apart from the others: its motion depends only on its
+  // own seed (SampleRequest::seeds), labels, prefix and controls, never on its batch mates, and
+  // MotionModel::copy_stream_row moves a character between streams (a runtime adds and removes
+  // characters per slot).
+  bool independent_rows = false;
   // Seconds of standing that offline sampling generates first and drops when the caller leaves
   // the choice to the family (nn::kFamilyWarmup): families that start from a neutral state need it
   // to settle into a natural pose (MoGlow: the mean pose as history, 1 s); 0 for families whose

@@ -12,6 +12,7 @@
 #include "nn/config_json.h"
 #include "nn/options_fields.h"
 #include "nn/label_features.h"
+#include "nn/moglow/moglow_stream.h"
 
 namespace mosyn::nn {
 
@@ -23,6 +24,7 @@ double default_dropout(data::PoseForm form) {
   switch (form) {
     case data::PoseForm::kRotations: return 0.6;
     case data::PoseForm::kPositions: return 0.95;
+    case data::PoseForm::kMarkers: return 0.95;  // positions of surface points: as joint positions
   }
   throw Error("moglow: invalid pose form");
 }
@@ -344,17 +346,6 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
 
 namespace {
 
-struct MoGlowStream : StreamState {
-  torch::Tensor pose_hist;  // [B, tau, D]
-  torch::Tensor ctrl_hist;  // [B, tau, C]: controls of the previous tau frames
-  std::vector<c10::optional<LstmState>> states;
-  std::vector<torch::Tensor> w_inverse;
-  torch::Tensor labels;  // [B, label_dim] or undefined
-  at::Generator generator;
-  double temperature = 1.0;
-  torch::TensorOptions options;
-};
-
 int64_t batch_of(const SampleRequest& r) {
   for (const auto* t : {&r.control, &r.prefix_pose, &r.prefix_control, &r.content, &r.style})
     if (t->defined()) return t->size(0);
@@ -376,32 +367,33 @@ torch::Tensor last_frames(const torch::Tensor& x, int64_t n, int64_t b, int64_t 
 std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& request) {
   torch::NoGradGuard no_grad;
   const int64_t b = batch_of(request), tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
-  auto st = std::make_unique<MoGlowStream>();
-  auto param = steps.front()->actnorm->bias;
-  st->options = param.options();
-  st->temperature = request.temperature;
-  st->generator = at::detail::createCPUGenerator(request.seed);
+  const auto options = steps.front()->actnorm->bias.options();
   if (request.prefix_pose.defined() && (request.prefix_pose.dim() != 3 || request.prefix_pose.size(2) != d))
     throw Error("sample request: prefix_pose must be [B, P, " + std::to_string(d) + "]");
   if (request.prefix_control.defined() && (request.prefix_control.dim() != 3 || request.prefix_control.size(2) != c))
     throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "]");
-  torch::Tensor pre_pose = request.prefix_pose.defined() ? request.prefix_pose.to(st->options) : torch::Tensor();
+  if (!request.seeds.empty() && static_cast<int64_t>(request.seeds.size()) != b)
+    throw Error("sample request: seeds must have one entry per character (" + std::to_string(b) + ")");
+  std::vector<std::uint64_t> seeds = request.seeds;
+  for (int64_t k = static_cast<int64_t>(seeds.size()); k < b; ++k) seeds.push_back(row_seed(request.seed, k));
+  auto st = std::make_unique<MoGlowStream>(*this, b, seeds);
+  st->temperature = request.temperature;
+  torch::Tensor pre_pose = request.prefix_pose.defined() ? request.prefix_pose.to(options) : torch::Tensor();
   torch::Tensor pre_ctrl;
   if (pre_pose.defined()) {
-    pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(st->options)
-                                                : torch::zeros({b, pre_pose.size(1), c}, st->options);
+    pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(options)
+                                                : torch::zeros({b, pre_pose.size(1), c}, options);
   }
-  st->states.resize(steps.size());
-  st->labels = labels_of(request.content, request.style, b, st->options);
+  const auto labels = labels_of(request.content, request.style, b, options);
   // A prefix longer than tau warms the coupling LSTMs up, as the window context does in training.
-  if (pre_pose.defined() && pre_pose.size(1) > tau) {
-    auto e = encode(pre_pose, pre_ctrl, {}, nullptr, false, st->labels);
-    st->states = e.states;
-  }
-  st->pose_hist = last_frames(pre_pose, tau, b, d, st->options);
-  st->ctrl_hist = last_frames(pre_ctrl, tau, b, c, st->options);
-  for (auto& s : steps) st->w_inverse.push_back(torch::inverse(s->linear->weight()));
+  if (pre_pose.defined() && pre_pose.size(1) > tau)
+    st->set_lstm_states(encode(pre_pose, pre_ctrl, {}, nullptr, false, labels).states);
+  st->set_history(last_frames(pre_pose, tau, b, d, options), last_frames(pre_ctrl, tau, b, c, options), labels);
   return st;
+}
+
+void MoGlowImpl::copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) {
+  dynamic_cast<MoGlowStream&>(dst).copy_row(dst_row, dynamic_cast<const MoGlowStream&>(src), src_row);
 }
 
 ModelTraits MoGlowImpl::traits() const {
@@ -410,6 +402,7 @@ ModelTraits MoGlowImpl::traits() const {
   t.labels = label_dim_ > 0;
   t.prefix = true;
   t.streaming = lookahead_dim_ == 0;
+  t.independent_rows = true;
   t.default_warmup_s = 1.0;
   return t;
 }
@@ -421,24 +414,11 @@ StreamFrame MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& con
 }
 
 torch::Tensor MoGlowImpl::next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead) {
-  torch::NoGradGuard no_grad;
   auto& st = dynamic_cast<MoGlowStream&>(state);
-  const int64_t b = st.pose_hist.size(0), d = context_.pose_dim;
-  if (control.dim() != 2 || control.size(0) != b || control.size(1) != context_.control_dim)
-    throw Error("moglow step: control must be [" + std::to_string(b) + ", " + std::to_string(context_.control_dim) + "]");
-  auto ctrl_full = torch::cat({st.ctrl_hist, control.to(st.options).unsqueeze(1)}, 1);  // [B, tau+1, C]
-  std::vector<torch::Tensor> parts = {st.pose_hist.reshape({b, -1}), ctrl_full.reshape({b, -1})};
-  if (st.labels.defined()) parts.push_back(st.labels);
-  if (lookahead.defined()) parts.push_back(lookahead.to(st.options));
-  auto cond = torch::cat(parts, -1).unsqueeze(0);
-  auto z = torch::randn({1, b, d}, st.generator, torch::TensorOptions().dtype(st.options.dtype())).to(st.options.device());
-  auto x = z * st.temperature;
-  for (int64_t k = static_cast<int64_t>(steps.size()) - 1; k >= 0; --k)
-    x = steps[k]->reverse(x, cond, st.states[k], st.w_inverse[k]);
-  auto pose = x.squeeze(0);
-  st.pose_hist = torch::cat({st.pose_hist.narrow(1, 1, options_.tau - 1), pose.unsqueeze(1)}, 1);
-  st.ctrl_hist = ctrl_full.narrow(1, 1, options_.tau);
-  return pose;
+  if (control.dim() != 2 || control.size(0) != st.batch || control.size(1) != context_.control_dim)
+    throw Error("moglow step: control must be [" + std::to_string(st.batch) + ", " +
+                std::to_string(context_.control_dim) + "]");
+  return st.step(control.to(st.options), lookahead.defined() ? lookahead.to(st.options) : lookahead);
 }
 
 SampleOutput MoGlowImpl::sample(const SampleRequest& request) {

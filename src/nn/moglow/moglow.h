@@ -156,6 +156,7 @@ class MoGlowImpl : public MotionModel {
   SampleOutput sample(const SampleRequest& request) override;
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
   StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
+  void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) override;
 
   // Result of running the normalising direction over a window.
   struct Encoded {
