@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/kinematics.h"
+#include "core/markers.h"
 #include "core/rotation.h"
 #include "core/trajectory.h"
 
@@ -87,6 +88,7 @@ const char* to_string(PoseForm form) {
   switch (form) {
     case PoseForm::kRotations: return "rotations";
     case PoseForm::kPositions: return "positions";
+    case PoseForm::kMarkers: return "markers";
   }
   throw Error("invalid pose form " + std::to_string(static_cast<int>(form)));
 }
@@ -103,6 +105,7 @@ int expected_pose_dim(PoseForm form, int num_joints, bool smoothed_root) {
   switch (form) {
     case PoseForm::kRotations: return 1 + 6 * num_joints + (smoothed_root ? 2 : 0);
     case PoseForm::kPositions: return 3 * num_joints;
+    case PoseForm::kMarkers: return 3 * static_cast<int>(cmu41_marker_names().size());
   }
   throw Error("invalid pose form " + std::to_string(static_cast<int>(form)));
 }
@@ -148,6 +151,12 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
       for (int k = 0; k < 3; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + kAxes[k]);
       break;
     }
+    case PoseForm::kMarkers: {
+      static const char* kAxes[3] = {".x_m", ".y_m", ".z_m"};
+      for (const Marker& m : cmu41_markers(skeleton).markers)  // throws for a skeleton without the body parts
+        for (int k = 0; k < 3; ++k) layout.pose_names.push_back(m.name + kAxes[k]);
+      break;
+    }
   }
   layout.pose_dim = static_cast<int>(layout.pose_names.size());
   layout.control_dim = 3;
@@ -172,6 +181,7 @@ void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const F
   const double mpu = skeleton.meters_per_unit;
   const WorldPoses world = forward_kinematics(skeleton, motion);
   const std::array<int, 2> floor = floor_axes(skeleton);
+  const MarkerSet markers = layout.form == PoseForm::kMarkers ? cmu41_markers(skeleton) : MarkerSet{};
   pose->assign(static_cast<size_t>(num_frames) * layout.pose_dim, 0.0f);
   for (int t = 0; t < num_frames; ++t) {
     const Eigen::Quaterniond heading_inv = heading_rotation(skeleton, ground.headings_rad[t]).conjugate();
@@ -201,6 +211,14 @@ void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const F
         const Eigen::Vector3d local = heading_inv * (world.position(t, j) - origin) * mpu;
         for (int k = 0; k < 3; ++k) p[3 * j + k] = static_cast<float>(local[k]);
       }
+        break;
+      }
+      case PoseForm::kMarkers: {
+        const std::vector<Eigen::Vector3d> at = marker_positions(markers, world, t);
+        for (size_t i = 0; i < at.size(); ++i) {
+          const Eigen::Vector3d local = heading_inv * (at[i] - ground.positions[t]) * mpu;
+          for (int k = 0; k < 3; ++k) p[3 * i + k] = static_cast<float>(local[k]);
+        }
         break;
       }
     }
@@ -346,6 +364,30 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
         world[j] = (parent_world * local).normalized();
       }
     }
+      break;
+    }
+    case PoseForm::kMarkers: {
+      const MarkerSet markers = cmu41_markers(skeleton);
+      std::vector<Eigen::Vector3d> targets(markers.markers.size());
+      for (int t = 0; t < num_frames; ++t) {
+        const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
+        const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
+        for (size_t i = 0; i < targets.size(); ++i)
+          targets[i] = ground.positions[t] + heading * (Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]) / mpu);
+        MarkerFitOptions options;
+        options.pose_prior = 1e-7;  // only to hold what the markers do not see
+        options.max_iterations = 50;
+        if (t == 0) {
+          initialise_from_markers(skeleton, markers, targets, &motion, 0);
+          options.max_iterations = 200;
+        } else {
+          for (int j = 0; j < num_joints; ++j) motion.rotation(t, j) = motion.rotation(t - 1, j);
+          motion.translation(t, 0) = motion.translation(t - 1, 0);
+        }
+        fit_markers(skeleton, markers, targets, &motion, t, options);
+        for (int j = 0; j < num_joints; ++j)
+          if (t > 0) motion.rotation(t, j) = align_hemisphere(motion.rotation(t, j), motion.rotation(t - 1, j));
+      }
       break;
     }
   }

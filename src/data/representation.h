@@ -19,14 +19,18 @@ enum class PoseForm {
   // Joint positions relative to the floor-projected root, in the root's heading frame (metres).
   // Back to rotations through an inverse-kinematics fit onto the skeleton.
   kPositions,
+  // Virtual surface markers (core/markers.h: the CMU 41-marker layout rigidly attached to the
+  // bones, as MOJO, Zhang et al. 2021) relative to the floor-projected root, in the root's heading
+  // frame (metres). Back to rotations through a Levenberg-Marquardt fit of the skeleton to them.
+  kMarkers,
 };
 
 // Every form, for tables and messages. Code that depends on the form switches over it without a
 // default, so a new form (e.g. markers) is a compile warning everywhere it needs handling.
-constexpr PoseForm kPoseForms[] = {PoseForm::kRotations, PoseForm::kPositions};
+constexpr PoseForm kPoseForms[] = {PoseForm::kRotations, PoseForm::kPositions, PoseForm::kMarkers};
 
 const char* to_string(PoseForm form);
-// "rotations" or "positions"; throws mosyn::Error otherwise.
+// "rotations", "positions" or "markers"; throws mosyn::Error otherwise.
 PoseForm parse_pose_form(const std::string& text);
 
 // How a feature vector is laid out, written into dataset.json and run directories.
@@ -66,6 +70,10 @@ struct FeatureLayout {
 //                          j = 0..J-1; joint r's own entry is (0, height, 0) for Y-up on the raw
 //                          trajectory, (sway, height, forward offset) on a smoothed one.
 //               pose_dim = 3 J.
+//   kMarkers    pose[t] = [world position of marker m (core/markers.h cmu41_markers) minus p_t,
+//                          rotated by heading_rotation(theta_t)^-1, metres (3)] for the 41 markers
+//               in cmu41_marker_names() order; pose_dim = 123 whatever the skeleton (which must
+//               have the body parts find_body_parts looks for).
 //   control[t] = (dx, dz in metres, dtheta in radians): RootDelta of the trajectory moving
 //                frame t-1 to frame t in the ground frame of t-1; control[0] = 0.
 // 6D vectors are rot6d_from_quat (core/rotation.h): the first two matrix columns.
@@ -77,7 +85,7 @@ struct FeatureLayout {
 FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_joint,
                           const Eigen::Vector3d& forward_in_root, double root_smoothing_s = 0.0);
 
-// Pose dimensions of a layout's form on a skeleton of num_joints joints.
+// Pose dimensions of a layout's form on a skeleton of num_joints joints (kMarkers: 3 x 41, any skeleton).
 int expected_pose_dim(PoseForm form, int num_joints, bool smoothed_root);
 
 // The trajectory a layout encodes a motion against (see the layouts above): the hip joint's
@@ -108,6 +116,10 @@ void encode_pose_against(const Skeleton& skeleton, const Motion& motion, const F
 //   - a joint with one direction: the minimal rotation taking the rest bone direction onto the
 //     target direction. Twist about such a bone is not recoverable from positions, so it is 0;
 //   - a joint with no non-zero bone (a leaf, an end site of length 0): identity.
+// Marker fit (kMarkers): frame 0 starts from the canonical pose placed at the waist markers
+// (core/markers.h initialise_from_markers), every later frame from the previous frame's fit;
+// fit_markers (50 iterations) with a pose prior of 1e-7 that only holds what the markers do not
+// see. Close for markers of a motion on the same skeleton (the fit's tolerance, float32 features).
 // Bone lengths always come from the skeleton, not from the features; joints above the
 // trajectory joint (a static root) keep identity rotations. Results are world-position exact
 // (up to float32 rounding) for features of a motion on the same skeleton.
