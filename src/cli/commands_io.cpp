@@ -8,6 +8,7 @@
 #include "cli/cli.h"
 #include "core/error.h"
 #include "core/kinematics.h"
+#include "core/markers.h"
 #include "core/units.h"
 #include "data/augment.h"
 #include "data/control.h"
@@ -50,6 +51,7 @@ struct ConvertOptions {
   double fps = 0;
   std::string joints, drop_joints;
   bool positions = false;
+  bool markers = false;
   bool metres = false;
   bool control = false;
 };
@@ -61,8 +63,10 @@ void run_convert(const ConvertOptions& o) {
     throw UsageError("output '" + o.output + "' must end in .bvh, .glb, .gltf, .npy, .csv or .json");
   if (o.control && (ext != "csv" || o.positions))
     throw UsageError("--control writes the root control as CSV: give an output ending in .csv and no --positions");
-  if (ext == "npy" && !o.positions) throw UsageError(".npy outputs hold world joint positions: add --positions");
-  if (ext == "csv" && !o.positions && !o.control)
+  if (o.markers && (o.positions || o.control || (ext != "npy" && ext != "csv")))
+    throw UsageError("--markers writes marker positions as .npy or .csv: give such an output and no --positions or --control");
+  if (ext == "npy" && !o.positions && !o.markers) throw UsageError(".npy outputs hold world joint positions: add --positions");
+  if (ext == "csv" && !o.positions && !o.control && !o.markers)
     throw UsageError(".csv outputs hold world joint positions (--positions) or the root control (--control)");
   if ((ext == "bvh" || gltf) && o.positions) throw UsageError("--positions does not apply to ." + ext + " output");
   if (o.fps < 0) throw UsageError("--fps must be positive");
@@ -97,6 +101,21 @@ void run_convert(const ConvertOptions& o) {
     return;
   }
   const double scale = o.metres ? resolve_meters_per_unit(clip.skeleton) : 1.0;
+  if (o.markers) {
+    // The CMU 41-marker layout rigidly attached to the bones (core/markers.h), as MOJO predicts.
+    Skeleton placed = clip.skeleton;
+    placed.meters_per_unit = resolve_meters_per_unit(clip.skeleton);  // marker offsets are in metres
+    const MarkerSet set = cmu41_markers(placed);
+    std::vector<Eigen::Vector3d> at = marker_positions(placed, set, clip.motion);
+    for (auto& p : at) p *= scale;
+    if (ext == "npy")
+      io::write_positions_npy(o.output, clip.motion.num_frames, set.num_markers(), at);
+    else
+      io::write_positions_csv(o.output, cmu41_marker_names(), clip.motion.num_frames, at);
+    std::fprintf(stderr, "wrote %s: %d frames x %d CMU markers, positions in %s\n", o.output.c_str(),
+                 clip.motion.num_frames, set.num_markers(), o.metres ? "metres" : "the file's units");
+    return;
+  }
   const WorldPoses poses = forward_kinematics(clip.skeleton, clip.motion);
   const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
   std::vector<Eigen::Vector3d> positions = poses.positions;
@@ -154,6 +173,9 @@ void add_convert_command(CLI::App& app, Action* action) {
   cmd->add_flag("--positions", o->positions,
                 "write world joint positions: NPY float32 [T,J,3] in BVH joint order (End Sites excluded), "
                 "CSV 'frame,joint,x,y,z', or JSON");
+  cmd->add_flag("--markers", o->markers,
+                "write the 41 CMU surface markers (MOJO's layout, rigidly attached to the bones) instead of joints: "
+                "NPY float32 [T,41,3] or CSV 'frame,marker,x,y,z' (Bandai-Namco and CMU joint names)");
   cmd->add_flag("--metres", o->metres, "scale positions to metres (units guessed from the skeleton's size)");
   cmd->add_flag("--control", o->control,
                 "write the root control as CSV 'dx,dz,dtheta' per frame (metres, radians; the input of "
