@@ -34,7 +34,7 @@ html, body { margin: 0; height: 100%; overflow: hidden; font: 14px sans-serif; b
        display: flex; align-items: center; gap: 10px; padding: 0 10px; background: #fff; border-top: 1px solid #ddd; }
 #scrub { flex: 1; }
 #legend { position: absolute; left: 10px; top: 8px; }
-#legend .item { margin-right: 14px; }
+#legend .item { margin-right: 14px; cursor: pointer; }
 #legend .swatch { display: inline-block; width: 12px; height: 12px; margin-right: 5px; vertical-align: -1px; }
 #clock { font-variant-numeric: tabular-nums; min-width: 110px; }
 )css";
@@ -86,7 +86,8 @@ std::string viewer_page(const std::vector<RenderMotion>& motions, const std::str
       "<div id=\"bar\"><button id=\"play\">Pause</button><input id=\"scrub\" type=\"range\" min=\"0\" value=\"0\">"
       "<span id=\"clock\"></span><label>speed <select id=\"speed\"><option value=\"0.25\">0.25x</option>"
       "<option value=\"0.5\">0.5x</option><option value=\"1\" selected>1x</option><option value=\"2\">2x</option>"
-      "</select></label><label><input id=\"overlay\" type=\"checkbox\"> overlay</label></div>\n";
+      "</select></label><label><input id=\"overlay\" type=\"checkbox\"> overlay</label>"
+      "<select id=\"camera\" title=\"camera\"><option value=\"-1\">frame all</option></select></div>\n";
   page += "<script id=\"mosyn-data\" type=\"application/json\">" +
           escape_script_end(viewer_data_json(motions, title)) + "</script>\n";
   page += "<script>" + escape_script_end(viewer_script()) + "</script>\n</body>\n</html>\n";

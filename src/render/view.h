@@ -21,10 +21,14 @@ bool viewer_available();
 // [J], "parents" [J], "frames" [T][J * 3]}]} with positions in metres (+Y up) rounded to 0.1 mm.
 std::string viewer_data_json(const std::vector<RenderMotion>& motions, const std::string& title);
 
-// The whole HTML page: canvas, controls (play/pause, time scrubber, speed, overlay toggle, orbit
-// camera by mouse), legend with one colour per motion. "</" inside the inlined script and data is
-// escaped so neither can end its <script> element. Throws mosyn::Error when the viewer script is
-// unavailable (mosyn built without npm) or there is no motion.
+// The whole HTML page: canvas with solid bodies, soft floor shadows, feet darkened while planted
+// and ground paths; controls (play/pause, time scrubber, speed, overlay toggle, camera menu: frame
+// all figures or follow one; orbit by mouse, zoom by wheel), legend with one colour per motion (a
+// click follows it). Motions are laid out side by side in a near-square grid of cells; a page of
+// more than three motions starts following the first ("PAGE.html#follow=-1" frames all).
+// "</" inside the inlined script and data is escaped so neither can end its <script> element.
+// Throws mosyn::Error when the viewer script is unavailable (mosyn built without npm) or there is
+// no motion.
 std::string viewer_page(const std::vector<RenderMotion>& motions, const std::string& title = "mosyn");
 
 // viewer_page written atomically.
