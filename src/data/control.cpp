@@ -185,6 +185,11 @@ std::vector<float> control_from_path(const std::vector<Waypoint>& waypoints, con
   }
   double duration = o.seconds > 0 ? o.seconds : total_s + 1.0;
   if (path.points.size() == 1 && o.seconds <= 0) duration = std::max(o.standing_s, total_s);
+  // A path given without a duration lasts as long as walking it takes: bound it like an explicit
+  // one (a path of 1000 km asked for 23 million frames; found by fuzz/fuzz_csv).
+  if (!(duration <= 3600))
+    throw Error("path: walking it takes " + std::to_string(total_s) +
+                " s (pauses included), more than the 3600 s a control may last; shorten it or give the seconds");
   const int num_frames = static_cast<int>(std::floor(duration * o.fps + 1e-9)) + 1;
 
   for (int f = 0; f < num_frames; ++f) {

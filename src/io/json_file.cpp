@@ -20,6 +20,20 @@ nlohmann::json parse_json(const std::string& text, const std::string& file_name_
     const size_t colon = message.find(": ");
     if (colon != std::string::npos) message = message.substr(colon + 2);
     throw ParseError(file_name_for_errors, line, "invalid JSON: " + message);
+  } catch (const nlohmann::json::exception& e) {
+    // Valid syntax the parser still refuses, e.g. a number beyond double range ("1e999": out_of_range
+    // 406, "number overflow parsing '1e999'"); name the line of the quoted token when it is found.
+    std::string message = e.what();
+    const size_t bracket = message.find("] ");
+    if (bracket != std::string::npos) message = message.substr(bracket + 2);
+    int line = 0;
+    const size_t open = message.find('\''), close = message.rfind('\'');
+    if (open != std::string::npos && close > open + 1) {
+      const size_t at = text.find(message.substr(open + 1, close - open - 1));
+      if (at != std::string::npos)
+        line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+    }
+    throw ParseError(file_name_for_errors, line, "invalid JSON: " + message);
   }
 }
 

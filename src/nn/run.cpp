@@ -15,6 +15,13 @@ namespace mosyn::nn {
 namespace {
 constexpr const char* kCheckpointFormat = "mosyn-checkpoint-1";
 
+// A checkpoint with NaN or infinite weights is refused: a model loaded from it would only
+// produce NaN motion (and training resumed from it fails at its first step).
+void check_finite(const torch::Tensor& stored, const std::string& name) {
+  if (stored.is_floating_point() && stored.numel() > 0 && !torch::isfinite(stored).all().item<bool>())
+    throw Error("tensor '" + name + "' holds NaN or infinite values");
+}
+
 // Module::load, except that stored tensors are copied into the existing ones: the model keeps its
 // dtype (float16 weights from narrow_to_half compute in float32) and its tensor identities
 // (LSTM flat-weight views stay valid). Shapes must match.
@@ -24,6 +31,7 @@ void load_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
     if (stored.sizes() != target.sizes())
       throw Error("tensor '" + name + "' has shape " + c10::str(stored.sizes()) + ", expected " +
                   c10::str(target.sizes()));
+    check_finite(stored, name);
     target.copy_(stored);
   };
   for (auto& p : module.named_parameters(/*recurse=*/false)) {
@@ -44,7 +52,8 @@ void load_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
 }
 // Copies what fits from a stored tensor into target (see init_from_checkpoint); returns how.
 enum class Fit { kExact, kGrown, kSkipped };
-Fit copy_what_fits(torch::Tensor& target, const torch::Tensor& stored) {
+Fit copy_what_fits(torch::Tensor& target, const torch::Tensor& stored, const std::string& name) {
+  check_finite(stored, name);
   if (stored.sizes() == target.sizes()) {
     target.copy_(stored);
     return Fit::kExact;
@@ -71,7 +80,7 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
       report->missing.push_back(name);
       return;
     }
-    switch (copy_what_fits(target, stored.to(target.dtype()))) {
+    switch (copy_what_fits(target, stored.to(target.dtype()), name)) {
       case Fit::kExact: ++report->copied; break;
       case Fit::kGrown: report->grown.push_back(name); break;
       case Fit::kSkipped: report->missing.push_back(name); break;

@@ -28,6 +28,19 @@ TEST(ControlTest, ParsePathRejectsGarbage) {
   EXPECT_THROW(parse_path("0,0,-1"), Error);
 }
 
+// Regression (fuzz/corpus/csv/crash-path-1000km.txt): a path without a duration lasts as long as
+// walking it takes, which must stay within the 3600 s an explicit duration may have, instead of
+// allocating a control of millions of frames.
+TEST(ControlTest, OverlongOrInfinitePathsAreRefused) {
+  PathOptions options;  // seconds = 0: as long as the path takes
+  EXPECT_THROW(control_from_path(parse_path("0,0 0,999999 2,20"), options), Error);
+  EXPECT_THROW(control_from_path(parse_path("0,0,1e300 1,1"), options), Error);
+  options.seconds = 5;  // an explicit duration cuts the walk off
+  EXPECT_EQ(control_from_path(parse_path("0,0 0,999999"), options).size(), 3u * (5 * 30 + 1));
+  options.seconds = 0;
+  EXPECT_NO_THROW(control_from_path(parse_path("0,0 0,1000"), options));  // about 13 minutes
+}
+
 TEST(ControlTest, StraightPathEndsAtTheLastWaypoint) {
   PathOptions options;
   options.speed_mps = 1.5;

@@ -43,5 +43,21 @@ TEST(JsonFile, SyntaxErrorsGiveFileAndLine) {
   EXPECT_THROW(format_json(nlohmann::json("\xff\xfe")), Error);  // invalid UTF-8
 }
 
+// A number beyond double range is valid JSON syntax that nlohmann refuses with out_of_range (not
+// parse_error); it escaped as a bare nlohmann exception naming no file (found by the bad-numbers
+// test of stats.json; the json_config fuzz harness reports the same input as a crash).
+TEST(JsonFile, NumberOverflowGivesFileAndLine) {
+  for (const std::string& number : {std::string("1e999"), std::string("-1e400")}) {
+    try {
+      parse_json("{\n  \"pose_mean\": [0.5,\n    " + number + "]\n}\n", "stats.json");
+      ADD_FAILURE() << "no error for " << number;
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.file(), "stats.json");
+      EXPECT_EQ(e.line(), 3) << e.what();
+      EXPECT_NE(std::string(e.what()).find(number), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mosyn::io
