@@ -109,6 +109,19 @@ void check_record(const ClipRecord& c, int pose_dim, int control_dim) {
                 std::to_string(pose_dim) + " + " + std::to_string(control_dim) + " values");
 }
 
+// Throws ParseError naming the file, clip, frame and dimension of the first NaN or infinity.
+void check_finite(const ClipRecord& c, uint32_t index, int pose_dim, int control_dim, const std::string& file) {
+  for (const bool pose : {true, false}) {
+    const std::vector<float>& v = pose ? c.pose : c.control;
+    const int dim = pose ? pose_dim : control_dim;
+    for (size_t i = 0; i < v.size(); ++i)
+      if (!std::isfinite(v[i]))
+        throw ParseError(file, 0, "clip " + std::to_string(index) + " ('" + c.source + "') holds a non-finite " +
+                                      (pose ? "pose" : "control") + " value at frame " + std::to_string(i / dim) +
+                                      ", dimension " + std::to_string(i % dim));
+  }
+}
+
 std::vector<float> floats_from(const json& j, const char* key, size_t expected, const std::string& file) {
   const std::vector<float> v = get_key<std::vector<float>>(j, key, file);
   if (v.size() != expected)
@@ -264,6 +277,7 @@ json stats_to_json(const DatasetStats& s) {
           {"pose_std", s.pose_std},
           {"control_mean", s.control_mean},
           {"control_std", s.control_std},
+          {"pose_constant", s.pose_constant},
           {"std_floor", kStdFloor}};
 }
 
@@ -279,6 +293,14 @@ DatasetStats stats_from_json(const json& j, const std::string& file) {
     if (!(x > 0)) throw ParseError(file, 0, "pose_std must be positive");
   for (float x : s.control_std)
     if (!(x > 0)) throw ParseError(file, 0, "control_std must be positive");
+  if (j.contains("pose_constant")) {  // absent before near-constant dimensions were recorded
+    s.pose_constant = get_key<std::vector<int>>(j, "pose_constant", file);
+    for (size_t i = 0; i < s.pose_constant.size(); ++i)
+      if (s.pose_constant[i] < 0 || static_cast<size_t>(s.pose_constant[i]) >= pose_dim ||
+          (i > 0 && s.pose_constant[i] <= s.pose_constant[i - 1]))
+        throw ParseError(file, 0, "pose_constant must list pose dimensions below " + std::to_string(pose_dim) +
+                                      " in increasing order");
+  }
   return s;
 }
 
@@ -354,6 +376,7 @@ std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim,
     if (c.num_frames < 0) throw ParseError(file, 0, "clip " + std::to_string(i) + " has a bad frame count");
     r.get_floats(&c.pose, static_cast<uint64_t>(c.num_frames) * pose_dim, "pose data");
     r.get_floats(&c.control, static_cast<uint64_t>(c.num_frames) * control_dim, "control data");
+    check_finite(c, i, pose_dim, control_dim, file);
     frames += static_cast<uint64_t>(c.num_frames);
     clips.push_back(std::move(c));
   }
@@ -363,6 +386,7 @@ std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim,
 }
 
 DatasetStats compute_stats(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim) {
+  std::vector<int> constant;  // near-constant pose dimensions
   auto stats = [&](bool pose, int dim, std::vector<float>* mean_out, std::vector<float>* std_out) {
     std::vector<double> sum(dim, 0.0), sum_sq(dim, 0.0);
     double count = 0;
@@ -387,13 +411,16 @@ DatasetStats compute_stats(const std::vector<ClipRecord>& clips, int pose_dim, i
         }
     }
     for (int k = 0; k < dim; ++k) {
+      const double sample_std = std::sqrt(sum_sq[k] / count);
       (*mean_out)[k] = static_cast<float>(mean[k]);
-      (*std_out)[k] = std::max(static_cast<float>(std::sqrt(sum_sq[k] / count)), kStdFloor);
+      (*std_out)[k] = std::max(static_cast<float>(sample_std), kStdFloor);
+      if (pose && sample_std < kStdFloor) constant.push_back(k);
     }
   };
   DatasetStats s;
   stats(true, pose_dim, &s.pose_mean, &s.pose_std);
   stats(false, control_dim, &s.control_mean, &s.control_std);
+  s.pose_constant = std::move(constant);
   return s;
 }
 
@@ -501,6 +528,9 @@ std::string dataset_summary(const Dataset& dataset) {
       << ", " << std::setprecision(6) << info.skeleton.meters_per_unit << " m/unit\n";
   out << "features:    " << to_string(info.layout.form) << ", pose " << info.layout.pose_dim << " + control "
       << info.layout.control_dim << "\n";
+  if (!dataset.stats().pose_constant.empty())
+    out << "constant:    " << dataset.stats().pose_constant.size() << " of " << info.layout.pose_dim
+        << " pose dimensions (kept out of the models, restored on decoding)\n";
   out << "control:     "
       << (info.layout.smoothed_root() ? "Gaussian-filtered hip trajectory, sigma " + format_seconds(info.layout.root_smoothing_s)
                                       : std::string("raw hip trajectory"))

@@ -58,9 +58,20 @@ constexpr float kStdFloor = 1e-3f;
 
 // Per-dimension standardisation statistics: x_std = (x - mean) / std, std = max(sample std,
 // kStdFloor) over every frame of the training split (population std, augmented clips included).
+//
+// pose_constant lists the near-constant pose dimensions (sample std below kStdFloor, e.g. the
+// rotation of a joint the capture never moves: 32 of 153 on the CMU subset), in increasing
+// order. Standardised, such a dimension is (almost) the same number in every frame, and a density
+// model can make its likelihood unbounded (a flow's ActNorm starts at a log-determinant of
+// hundreds of nats per frame and training diverges). Models therefore never see their values:
+// training batches carry unit Gaussian noise there, conditioning inputs zero, and decoding
+// restores the dimension's mean (nn/standardiser.h). Recorded by compute_stats since this field
+// exists; absent in older stats.json files, which keep their old behaviour (no dimension treated
+// as constant).
 struct DatasetStats {
   std::vector<float> pose_mean, pose_std;        // [pose_dim]
   std::vector<float> control_mean, control_std;  // [control_dim]
+  std::vector<int> pose_constant;                // near-constant pose dimensions, increasing
 };
 
 struct DatasetInfo {
@@ -132,7 +143,8 @@ std::string format_clip_cache(const std::vector<ClipRecord>& clips, int pose_dim
 std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim, int control_dim,
                                          const std::string& file);
 
-// Statistics of clips (see DatasetStats). Zero clips give mean 0, std 1.
+// Statistics of clips (see DatasetStats), near-constant pose dimensions included. Zero clips give
+// mean 0, std 1 and no constant dimension.
 DatasetStats compute_stats(const std::vector<ClipRecord>& clips, int pose_dim, int control_dim);
 
 // Writes dataset.json, stats.json, train.bin and val.bin atomically into dir (created if

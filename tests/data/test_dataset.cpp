@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -169,6 +170,59 @@ TEST(Dataset, WriteOpenAndValidate) {
   fs::remove(info_path);
   EXPECT_THROW(Dataset::open(dir.string()), Error);
   EXPECT_THROW(Dataset::open((dir / "nope").string()), Error);
+  fs::remove_all(dir);
+}
+
+// Bad numbers are refused with the file named: a NaN or infinity in a cache (which the hash does
+// not catch: it was written that way) names the file, clip, frame and dimension; a stats.json
+// whose numbers overflow to infinity, or hold a null, names stats.json.
+TEST(Dataset, NonFiniteNumbersAreRefusedWithTheFileNamed) {
+  const fs::path dir = fs::temp_directory_path() / "mosyn_dataset_non_finite";
+  fs::remove_all(dir);
+  const DatasetInfo info = make_info();
+  std::vector<ClipRecord> train = {make_record("a.bvh", 9, 63, 0.f), make_record("c.bvh", 5, 63, 2.f)};
+  std::vector<ClipRecord> val = {make_record("b.bvh", 3, 63, 1.f)};
+  const DatasetStats stats = compute_stats(train, 63, 3);
+  write_dataset(dir.string(), info, stats, train, val, false);
+  const std::string train_path = (dir / "train.bin").string();
+  const std::string good = io::read_file(train_path);
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    std::vector<ClipRecord> poisoned = train;
+    poisoned[1].pose[2 * 63 + 7] = bad;
+    io::write_file_atomically(train_path, format_clip_cache(poisoned, 63, 3));
+    try {
+      Dataset::open(dir.string());
+      ADD_FAILURE() << "a non-finite pose value was accepted";
+    } catch (const ParseError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("train.bin"), std::string::npos) << what;
+      EXPECT_NE(what.find("c.bvh"), std::string::npos) << what;
+      EXPECT_NE(what.find("frame 2, dimension 7"), std::string::npos) << what;
+    }
+  }
+  std::vector<ClipRecord> poisoned = train;
+  poisoned[0].control[4] = -std::numeric_limits<float>::infinity();
+  io::write_file_atomically(train_path, format_clip_cache(poisoned, 63, 3));
+  EXPECT_THROW(Dataset::open(dir.string()), ParseError);
+  io::write_file_atomically(train_path, good);
+  ASSERT_NO_THROW(Dataset::open(dir.string()));
+
+  const std::string stats_path = (dir / "stats.json").string();
+  const std::string stats_text = io::read_file(stats_path);
+  nlohmann::json j = nlohmann::json::parse(stats_text);
+  for (const std::string& replacement : {std::string("1e999"), std::string("null")}) {
+    std::string text = j.dump();
+    const size_t at = text.find("\"pose_mean\":[") + std::string("\"pose_mean\":[").size();
+    const size_t comma = text.find(',', at);
+    text = text.substr(0, at) + replacement + text.substr(comma);
+    io::write_file_atomically(stats_path, text);
+    try {
+      Dataset::open(dir.string());
+      ADD_FAILURE() << "stats.json with " << replacement << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("stats.json"), std::string::npos) << e.what();
+    }
+  }
   fs::remove_all(dir);
 }
 

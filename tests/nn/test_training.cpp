@@ -432,3 +432,55 @@ TEST(Training, CheckpointWithoutStageResumesInTheOneStage) {
   fs::remove_all(dir_a);
   fs::remove_all(dir_b);
 }
+
+// Bad numbers in, clear errors out: a checkpoint holding a NaN or infinite weight is refused
+// naming the file and the tensor (by load_run and by a resumed training), and a dataset too small
+// for the window asked names both sizes.
+TEST(Training, NonFiniteCheckpointAndTooSmallDatasetAreRefused) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("non_finite");
+  auto o = tiny_options(dir);
+  o.steps = 4;
+  train(o, ds);
+  const std::string ckpt = (dir / "checkpoint.pt").string();
+  const std::string good = (dir / "good.pt").string();
+  fs::copy_file(ckpt, good);
+  for (const float bad : {std::nanf(""), INFINITY}) {
+    fs::copy_file(good, ckpt, fs::copy_options::overwrite_existing);
+    auto run = load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
+    torch::optim::Adam adam(run.trainable->parameters(), torch::optim::AdamOptions(1e-3));
+    CheckpointState state = load_checkpoint(ckpt, *run.trainable, &adam, torch::kCPU);
+    {
+      torch::NoGradGuard no_grad;
+      run.trainable->parameters().back().view(-1)[0] = bad;
+    }
+    save_checkpoint(ckpt, *run.trainable, &adam, state);
+    try {
+      load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
+      ADD_FAILURE() << "a checkpoint with a non-finite weight loaded";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("checkpoint.pt"), std::string::npos) << what;
+      EXPECT_NE(what.find("NaN or infinite"), std::string::npos) << what;
+    }
+    auto resumed = o;
+    resumed.steps = 8;
+    resumed.resume = true;
+    EXPECT_THROW(train(resumed, ds), Error);
+  }
+  fs::remove_all(dir);
+
+  auto big = tiny_options(temp_dir("too_small"));
+  int longest = 0;
+  for (const auto& c : ds.clips("train")) longest = std::max(longest, c.num_frames);
+  big.window = longest + 1;
+  try {
+    train(big, ds);
+    ADD_FAILURE() << "a window longer than every clip was accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(std::to_string(longest + 1) + " frames"), std::string::npos) << what;
+    EXPECT_NE(what.find("has " + std::to_string(longest) + " frames"), std::string::npos) << what;
+  }
+  fs::remove_all(big.out_dir);
+}

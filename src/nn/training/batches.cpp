@@ -4,6 +4,8 @@
 #include <cstring>
 #include <string>
 
+#include <ATen/CPUGeneratorImpl.h>
+
 #include "core/error.h"
 
 namespace mosyn::nn::training {
@@ -13,8 +15,13 @@ SplitWindows training_windows(const data::Dataset& dataset, int window) {
   s.clips = &dataset.clips("train");
   s.windows = dataset.windows("train", window, 1);
   s.window = window;
-  if (s.windows.empty())
-    throw Error("train: no training clip has " + std::to_string(window) + " frames (shorten the window)");
+  if (s.windows.empty()) {
+    int longest = 0;
+    for (const data::ClipRecord& c : *s.clips) longest = std::max(longest, c.num_frames);
+    throw Error("train: the dataset is too small for a window of " + std::to_string(window) + " frames: its longest of " +
+                std::to_string(s.clips->size()) + " training clips has " + std::to_string(longest) +
+                " frames (shorten the window or add longer clips)");
+  }
   return s;
 }
 
@@ -35,6 +42,20 @@ Batch BatchMaker::make(const SplitWindows& split, size_t begin, size_t count) co
   return make(split, std::vector<data::WindowRef>(split.windows.begin() + begin, split.windows.begin() + begin + count));
 }
 
+torch::Tensor BatchMaker::with_constant_noise(torch::Tensor pose, const std::vector<data::WindowRef>& windows) const {
+  const torch::Tensor& constant = standardiser_.pose_constant();
+  if (!constant.defined()) return pose;
+  for (size_t i = 0; i < windows.size(); ++i) {
+    // Seeded by the window, not the run's generator: the same window always gets the same noise,
+    // so validation losses are comparable and the training random stream is unchanged.
+    auto generator = at::make_generator<at::CPUGeneratorImpl>(
+        0x9E3779B97F4A7C15ull ^ (static_cast<uint64_t>(windows[i].clip) << 32) ^ static_cast<uint64_t>(windows[i].start));
+    const torch::Tensor noise = torch::randn({pose.size(1), constant.size(0)}, generator);
+    pose[static_cast<int64_t>(i)].index_copy_(1, constant, noise);
+  }
+  return pose;
+}
+
 Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::WindowRef>& windows) const {
   const auto count = static_cast<int64_t>(windows.size());
   const int window = split.window;
@@ -53,7 +74,7 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
     style[i] = clip.style;
   }
   Batch b;
-  b.pose = standardiser_.pose(pose).to(device_);
+  b.pose = with_constant_noise(standardiser_.pose(pose), windows).to(device_);
   b.control = standardiser_.control(ctrl).to(device_);
   b.content = content.to(device_);
   b.style = style.to(device_);

@@ -27,7 +27,10 @@ SplitWindows training_windows(const data::Dataset& dataset, int window);
 // the val split, in order. Empty when the split has no long-enough clip or max_windows <= 0.
 SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows);
 
-// Cuts batches from raw clips and standardises them with the dataset statistics.
+// Cuts batches from raw clips and standardises them with the dataset statistics. Near-constant
+// pose dimensions (data::DatasetStats::pose_constant) carry unit Gaussian noise instead of their
+// (constant) standardised value, so no model can fit them with unbounded likelihood; decoding
+// restores their mean (nn/standardiser.h).
 class BatchMaker {
  public:
   BatchMaker(const data::Dataset& dataset, int pose_dim, int control_dim, const torch::Device& device);
@@ -39,6 +42,10 @@ class BatchMaker {
   Batch make(const SplitWindows& split, const std::vector<data::WindowRef>& windows) const;
 
  private:
+  // pose [B, T, D] with fresh N(0, 1) values at the near-constant dimensions, one fixed draw per
+  // window (seeded by clip and start).
+  torch::Tensor with_constant_noise(torch::Tensor pose, const std::vector<data::WindowRef>& windows) const;
+
   int d_, c_;
   torch::Device device_;
   Standardiser standardiser_;
