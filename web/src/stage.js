@@ -110,7 +110,7 @@ export class Stage {
     dir.normalize();
     const fov = (this.camera.fov * Math.PI) / 180;
     const fit = Math.min(fov, fov * this.camera.aspect);
-    const distance = (this.radius / Math.sin(fit / 2)) * 0.88 * this.zoom;  // the half-diagonal overstates a body
+    const distance = (this.radius / Math.sin(fit / 2)) * 0.93 * this.zoom;  // the half-diagonal overstates a body
     this.controls.target.copy(this.target);
     this.camera.position.copy(this.target).addScaledVector(dir, distance);
     this.camera.near = Math.max(0.01, distance / 100);
