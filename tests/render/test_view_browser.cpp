@@ -100,9 +100,12 @@ TEST_F(ViewBrowserTest, EveryBodyIsDrawnWhenAllAreFramed) {
   const std::vector<RenderMotion> motions{walk(0, motion_color(0)), walk(1, motion_color(1))};
   const std::string page = (b_.dir / "two.html").string();
   write_viewer_page(page, motions, "browser test");
-  const Image image = screenshot(b_, page, 800, 600, "two");
-  EXPECT_EQ(image.width(), 800);
   const int frame = 800 * 600;
+  Image image = screenshot(b_, page, 800, 600, "two");
+  // On a starved machine Chromium may shoot before the first frame is drawn: one more try.
+  if (count_body_pixels(image, motion_color(0)) <= frame / 500 || count_body_pixels(image, motion_color(1)) <= frame / 500)
+    image = screenshot(b_, page, 800, 600, "two-again");
+  EXPECT_EQ(image.width(), 800);
   // Both bodies visible in their own colours (two walks diverging over 4 s share the frame).
   EXPECT_GT(count_body_pixels(image, motion_color(0)), frame / 500) << (b_.dir / "two.png").string();
   EXPECT_GT(count_body_pixels(image, motion_color(1)), frame / 500) << (b_.dir / "two.png").string();
@@ -114,9 +117,10 @@ TEST_F(ViewBrowserTest, AFollowedCharacterCoversAtLeastFivePercentOfTheFrame) {
   for (int i = 0; i < 11; ++i) motions.push_back(walk(i, motion_color(i == 0 ? 0 : 1 + (i - 1) % 7)));
   const std::string page = (b_.dir / "eleven.html").string();
   write_viewer_page(page, motions, "browser test");
-  const Image image = screenshot(b_, page, 1280, 800, "eleven");
-  const int followed = count_body_pixels(image, motion_color(0));
-  EXPECT_GE(followed, 0.05 * 1280 * 800) << (b_.dir / "eleven.png").string();
+  int followed = count_body_pixels(screenshot(b_, page, 1280, 800, "eleven"), motion_color(0));
+  // On a starved machine Chromium may shoot before the first frame is drawn: one more try.
+  if (followed < 0.05 * 1280 * 800) followed = count_body_pixels(screenshot(b_, page, 1280, 800, "eleven-again"), motion_color(0));
+  EXPECT_GE(followed, 0.05 * 1280 * 800) << (b_.dir / "eleven-again.png").string();
   std::printf("followed character: %.1f%% of the 1280x800 frame\n", 100.0 * followed / (1280 * 800));
 }
 
