@@ -133,22 +133,22 @@ FeatureLayout make_layout(const Skeleton& skeleton, PoseForm form, int root_join
   const int num_joints = skeleton.num_joints();
   switch (form) {
     case PoseForm::kRotations: {
-    layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".height_m");
-    auto add_r6d = [&](int j, const std::string& tag) {
-      for (int k = 0; k < 6; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + tag + std::to_string(k));
-    };
-    add_r6d(root_joint, ".heading_r6d");
-    for (int j = 0; j < num_joints; ++j)
-      if (j != root_joint) add_r6d(j, ".r6d");
-    if (root_smoothing_s > 0)
-      for (int axis : floor_axes(skeleton))
-        layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".offset_" + "xyz"[axis] + "_m");
+      layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".height_m");
+      auto add_r6d = [&](int j, const std::string& tag) {
+        for (int k = 0; k < 6; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + tag + std::to_string(k));
+      };
+      add_r6d(root_joint, ".heading_r6d");
+      for (int j = 0; j < num_joints; ++j)
+        if (j != root_joint) add_r6d(j, ".r6d");
+      if (root_smoothing_s > 0)
+        for (int axis : floor_axes(skeleton))
+          layout.pose_names.push_back(skeleton.joint_names[root_joint] + ".offset_" + "xyz"[axis] + "_m");
       break;
     }
     case PoseForm::kPositions: {
-    static const char* kAxes[3] = {".x_m", ".y_m", ".z_m"};
-    for (int j = 0; j < num_joints; ++j)
-      for (int k = 0; k < 3; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + kAxes[k]);
+      static const char* kAxes[3] = {".x_m", ".y_m", ".z_m"};
+      for (int j = 0; j < num_joints; ++j)
+        for (int k = 0; k < 3; ++k) layout.pose_names.push_back(skeleton.joint_names[j] + kAxes[k]);
       break;
     }
     case PoseForm::kMarkers: {

@@ -91,8 +91,9 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
     const int step = checkpoint_step(killed);  // throws (fails the test) on a torn checkpoint
     EXPECT_GE(step, last_step) << "the step went back past a completed checkpoint";
     last_step = step;
-    if (fs::exists(fs::path(killed) / "best.pt"))
+    if (fs::exists(fs::path(killed) / "best.pt")) {
       EXPECT_NO_THROW(nn::load_run(killed, nn::LoadOptions{"best.pt", "cpu", 1}));
+    }
     if (code == 0) break;  // finished before the kill
   }
   EXPECT_GE(kills, 10) << "too few kills landed while the run was going";
@@ -138,8 +139,12 @@ TEST(CliKill, PrepareAndSampleLeaveNoPartialFiles) {
     for (const auto& entry : fs::directory_iterator(out)) {
       const std::string name = entry.path().filename().string();
       if (name.find(".tmp.") != std::string::npos) continue;  // a killed writer's own temporary file
-      if (entry.path().extension() == ".bvh") EXPECT_NO_THROW(io::read_bvh(entry.path().string())) << name;
-      if (entry.path().extension() == ".json") EXPECT_NO_THROW(io::read_json(entry.path().string())) << name;
+      if (entry.path().extension() == ".bvh") {
+        EXPECT_NO_THROW(io::read_bvh(entry.path().string())) << name;
+      }
+      if (entry.path().extension() == ".json") {
+        EXPECT_NO_THROW(io::read_json(entry.path().string())) << name;
+      }
       ++checked;
     }
   }

@@ -205,7 +205,9 @@ TEST(AtomicFile, FullDiskIsAnErrorAndNeverACorruptFile) {
   ::setrlimit(RLIMIT_FSIZE, &saved);
   std::signal(SIGXFSZ, old_handler);
   // A device that is always full.
-  if (fs::exists("/dev/full")) EXPECT_THROW(write_file_atomically("/dev/full", "x"), Error);
+  if (fs::exists("/dev/full")) {
+    EXPECT_THROW(write_file_atomically("/dev/full", "x"), Error);
+  }
   fs::remove_all(dir);
 }
 

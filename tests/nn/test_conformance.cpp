@@ -111,7 +111,9 @@ TEST_P(FamilyConformance, SamplesFollowTheTraits) {
   ASSERT_EQ(a.control.sizes(), (std::vector<int64_t>{2, 13, 3}));
   EXPECT_TRUE(torch::isfinite(a.pose).all().item<bool>());
   EXPECT_TRUE(torch::isfinite(a.control).all().item<bool>());
-  if (traits.control == InputUse::kTakes) EXPECT_TRUE(torch::equal(a.control, req.control));
+  if (traits.control == InputUse::kTakes) {
+    EXPECT_TRUE(torch::equal(a.control, req.control));
+  }
   EXPECT_TRUE(torch::equal(a.pose, m->sample(req).pose)) << "same seed, same motion";
   EXPECT_FALSE(torch::equal(a.pose[0], a.pose[1])) << "samples within a batch differ";
   SampleRequest other = req;
