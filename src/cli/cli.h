@@ -46,6 +46,7 @@ void add_convert_command(CLI::App& app, Action* action);
 void add_data_commands(CLI::App& app, Action* action);
 void add_model_commands(CLI::App& app, Action* action);  // train, sample
 void add_eval_commands(CLI::App& app, Action* action);   // metrics, render, view
+void add_serve_command(CLI::App& app, Action* action);   // the live page
 
 // Number of hardware threads, at least 1.
 int default_threads();

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   mosyn::cli::add_data_commands(app, &action);
   mosyn::cli::add_model_commands(app, &action);
   mosyn::cli::add_eval_commands(app, &action);
+  mosyn::cli::add_serve_command(app, &action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -37,6 +37,8 @@ html, body { margin: 0; height: 100%; overflow: hidden; font: 14px sans-serif; b
 #legend .item { margin-right: 14px; cursor: pointer; }
 #legend .swatch { display: inline-block; width: 12px; height: 12px; margin-right: 5px; vertical-align: -1px; }
 #clock { font-variant-numeric: tabular-nums; min-width: 110px; }
+#help { position: absolute; right: 10px; top: 8px; color: #555; }
+#status { flex: 1; text-align: right; color: #555; font-variant-numeric: tabular-nums; }
 )css";
 
 }  // namespace
@@ -71,27 +73,55 @@ std::string viewer_data_json(const std::vector<RenderMotion>& motions, const std
   return j.dump();
 }
 
-std::string viewer_page(const std::vector<RenderMotion>& motions, const std::string& title) {
+namespace {
+
+void require_viewer() {
   if (!viewer_available())
     throw Error("the browser viewer is not available: mosyn was built without npm/node, which bundle three.js "
                 "at build time (install npm and rebuild)");
+}
+
+// The page up to the canvas and legend, shared by the playback and live pages.
+std::string page_head(const std::string& title) {
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + io::escape_html(title) +
+         "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n<canvas id=\"view\"></canvas>\n<div id=\"legend\"></div>\n";
+}
+
+// The data element and the viewer script that reads it; the end of every page.
+std::string page_tail(const std::string& data_json) {
+  return "<script id=\"mosyn-data\" type=\"application/json\">" + escape_script_end(data_json) + "</script>\n<script>" +
+         escape_script_end(viewer_script()) + "</script>\n</body>\n</html>\n";
+}
+
+}  // namespace
+
+std::string viewer_page(const std::vector<RenderMotion>& motions, const std::string& title) {
+  require_viewer();
   if (motions.empty()) throw Error("nothing to view");
   for (const auto& m : motions)
     if (m.num_frames < 1) throw Error("motion '" + m.name + "' has no frames");
-  std::string page;
-  page += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + io::escape_html(title) +
-          "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
-  page += "<canvas id=\"view\"></canvas>\n<div id=\"legend\"></div>\n";
+  std::string page = page_head(title);
   page +=
       "<div id=\"bar\"><button id=\"play\">Pause</button><input id=\"scrub\" type=\"range\" min=\"0\" value=\"0\">"
       "<span id=\"clock\"></span><label>speed <select id=\"speed\"><option value=\"0.25\">0.25x</option>"
       "<option value=\"0.5\">0.5x</option><option value=\"1\" selected>1x</option><option value=\"2\">2x</option>"
       "</select></label><label><input id=\"overlay\" type=\"checkbox\"> overlay</label>"
       "<select id=\"camera\" title=\"camera\"><option value=\"-1\">frame all</option></select></div>\n";
-  page += "<script id=\"mosyn-data\" type=\"application/json\">" +
-          escape_script_end(viewer_data_json(motions, title)) + "</script>\n";
-  page += "<script>" + escape_script_end(viewer_script()) + "</script>\n</body>\n</html>\n";
-  return page;
+  return page + page_tail(viewer_data_json(motions, title));
+}
+
+std::string live_page(const std::string& title) {
+  require_viewer();
+  std::string page = page_head(title);
+  page +=
+      "<div id=\"help\">arrow keys / WASD or a gamepad steer the selected character</div>\n"
+      "<div id=\"bar\"><select id=\"character\" title=\"steered and followed character\"></select>"
+      "<label id=\"style-label\">style <select id=\"style\"></select></label>"
+      "<label>speed <input id=\"speed\" type=\"range\" min=\"0.3\" max=\"3\" step=\"0.1\" value=\"1.3\">"
+      "<span id=\"speed-value\">1.3 m/s</span></label><button id=\"add\">add character</button>"
+      "<button id=\"remove\">remove</button><label><input id=\"follow\" type=\"checkbox\" checked> follow</label>"
+      "<span id=\"status\">connecting...</span></div>\n";
+  return page + page_tail(nlohmann::json{{"live", true}, {"title", title}}.dump());
 }
 
 void write_viewer_page(const std::string& path, const std::vector<RenderMotion>& motions, const std::string& title) {

@@ -31,6 +31,14 @@ std::string viewer_data_json(const std::vector<RenderMotion>& motions, const std
 // no motion.
 std::string viewer_page(const std::vector<RenderMotion>& motions, const std::string& title = "mosyn");
 
+// The live page of `mosyn serve` (src/serve/README.md): the same viewer in live mode. It opens a
+// WebSocket to the server it came from and draws the characters the server streams; arrow keys,
+// WASD or a gamepad steer the selected one; a style menu (when the model has styles), a speed
+// control, add/remove character buttons, the trail of each path walked, a follow camera. Test hooks:
+// window.mosynLive (frames received, root positions with arrival times, key-to-response latencies).
+// Throws mosyn::Error when the viewer script is unavailable (mosyn built without npm).
+std::string live_page(const std::string& title = "mosyn live");
+
 // viewer_page written atomically.
 void write_viewer_page(const std::string& path, const std::vector<RenderMotion>& motions,
                        const std::string& title = "mosyn");

@@ -56,7 +56,8 @@ function bodyHeight(m) {
 }
 
 export class Figure {
-  constructor(m, floorY) {
+  // options.path: draw the motion's ground path (default true; the live page draws trails itself).
+  constructor(m, floorY, options = {}) {
     this.motion = m;
     this.group = new THREE.Group();
     this.color = new THREE.Color(m.color);
@@ -80,7 +81,21 @@ export class Figure {
     this.planted = plantedFeet(m, this.feet);
     this.floorY = floorY;
     this.path = null;
-    this.updatePath();
+    if (options.path !== false) this.updatePath();
+  }
+
+  // Live: makes f the newest frame (the motion keeps the last two) and marks the feet planted
+  // against the lowest height each has had so far, with the speed from the previous frame.
+  push(f) {
+    const m = this.motion;
+    const prev = m.frames[m.frames.length - 1];
+    m.frames = [prev, f];
+    if (!this.lowest) this.lowest = this.feet.map((j) => prev[3 * j + 1]);
+    this.feet.forEach((j, k) => { this.lowest[k] = Math.min(this.lowest[k], f[3 * j + 1]); });
+    this.planted = [[], this.feet.map((j, k) => {
+      const speed = Math.hypot(f[3 * j] - prev[3 * j], f[3 * j + 2] - prev[3 * j + 2]) * m.fps;
+      return f[3 * j + 1] - this.lowest[k] < 0.05 && speed < 0.35;
+    })];
   }
 
   addMesh(geometry, r) {

@@ -1,0 +1,272 @@
+// Live mode of the viewer (`mosyn serve`): characters the server's model animates in real time,
+// streamed over a WebSocket to the page's own host (protocol: src/serve/README.md). Arrow keys or
+// WASD and a gamepad steer the selected character; a style menu (when the model has styles), a
+// speed control, add/remove buttons, each character's trail, and a camera that follows the
+// selected one. window.mosynLive holds what tests read: frames received, the selected
+// character's root per frame with its arrival time, and key-to-response latencies.
+import * as THREE from 'three';
+import { Figure } from './figures.js';
+import { Stage } from './stage.js';
+
+const KEYS = {
+  ArrowUp: ['forward', 1], KeyW: ['forward', 1], ArrowDown: ['forward', -1], KeyS: ['forward', -1],
+  ArrowLeft: ['turn', 1], KeyA: ['turn', 1], ArrowRight: ['turn', -1], KeyD: ['turn', -1],
+};
+const DEADZONE = 0.15;       // gamepad sticks rest a little off centre
+const TRAIL_POINTS = 20000;  // ~11 minutes at 30 fps; older points drop off
+const MOVED_M = 1e-4;        // a root step this long (per frame) is a response to the input
+
+// A character's trail: the ground path of its root, in a fixed-size buffer.
+class Trail {
+  constructor(color) {
+    this.positions = new Float32Array(TRAIL_POINTS * 3);
+    this.count = 0;
+    this.geometry = new THREE.BufferGeometry();
+    this.geometry.setAttribute('position', new THREE.BufferAttribute(this.positions, 3));
+    this.geometry.setDrawRange(0, 0);
+    const c = new THREE.Color(color).lerp(new THREE.Color('#000000'), 0.15);
+    this.line = new THREE.Line(this.geometry, new THREE.LineBasicMaterial({ color: c }));
+    this.line.frustumCulled = false;
+  }
+
+  push(root) {
+    if (this.count === TRAIL_POINTS) {
+      this.positions.copyWithin(0, 3);
+      this.count--;
+    }
+    this.positions.set([root[0], 0.003, root[2]], this.count * 3);
+    this.count++;
+    this.geometry.setDrawRange(0, this.count);
+    this.geometry.attributes.position.needsUpdate = true;
+  }
+}
+
+// Forward and turn in [-1, 1] from the held keys and the first connected gamepad.
+function heldInput(held) {
+  let forward = 0, turn = 0;
+  for (const code of held) {
+    const [axis, sign] = KEYS[code];
+    if (axis === 'forward') forward += sign; else turn += sign;
+  }
+  const pads = navigator.getGamepads ? [...navigator.getGamepads()].filter((p) => p && p.connected) : [];
+  if (pads.length) {
+    const p = pads[0];
+    const dead = (v) => (Math.abs(v) < DEADZONE ? 0 : v);
+    const pressed = (i) => (p.buttons[i] && p.buttons[i].pressed ? 1 : 0);
+    forward += -dead(p.axes[1] || 0) + pressed(12) - pressed(13);  // left stick / d-pad
+    turn += -dead(p.axes[0] || 0) + pressed(14) - pressed(15);
+  }
+  const clamp = (v) => Math.max(-1, Math.min(1, v));
+  return { forward: clamp(forward), turn: clamp(turn) };
+}
+
+const el = (id) => document.getElementById(id);
+
+// The live page: connection, characters, controls and the render loop.
+class LiveView {
+  constructor() {
+    this.stage = new Stage(el('view'));
+    this.live = { frames: 0, roots: [], latencies: [], errors: [], hello: null, closed: null };
+    window.mosynLive = this.live;
+    this.figures = new Map();  // id -> { fig, trail, style }
+    this.hello = null;
+    this.selected = 0;
+    this.sent = null;       // the last input sent, as a string to compare
+    this.press = null;      // a press from standing whose response is being timed
+    this.lastRoot = null;
+    this.groundAt = null;
+    this.held = new Set();  // key codes held down
+    this.ws = new WebSocket(`ws://${window.location.host}/ws`);
+    this.ws.onmessage = (e) => this.onMessage(JSON.parse(e.data), performance.now());
+    this.ws.onclose = (e) => {
+      this.live.closed = { code: e.code, reason: e.reason };
+      this.status(`disconnected (${e.code}${e.reason ? ` ${e.reason}` : ''}); reload to reconnect`);
+    };
+    this.wireControls();
+  }
+
+  status(text) { el('status').textContent = text; }
+
+  send(message) { if (this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(message)); }
+
+  // Sends the held input when it changed (or the speed did); a press from standing starts a
+  // latency measurement.
+  sendInput(force) {
+    if (!this.hello || !this.figures.has(this.selected)) return;
+    const input = heldInput(this.held);
+    const speed = Number(el('speed').value);
+    const key = `${this.selected} ${input.forward} ${input.turn} ${speed}`;
+    if (!force && key === this.sent) return;
+    if (input.forward !== 0 && (!this.sent || this.sent.split(' ')[1] === '0')) this.press = { t: performance.now(), first: null };
+    this.sent = key;
+    this.send({ type: 'input', character: this.selected, forward: input.forward, turn: input.turn, speed });
+  }
+
+  select(id) {
+    if (this.figures.has(this.selected) && id !== this.selected)
+      this.send({ type: 'input', character: this.selected, forward: 0, turn: 0 });  // the last one stops
+    this.selected = id;
+    this.sent = null;
+    this.lastRoot = null;
+    el('character').value = String(id);
+    const entry = this.figures.get(id);
+    if (entry && this.hello.styles.length) el('style').value = entry.style || '';
+    this.sendInput(true);
+  }
+
+  refreshMenu() {
+    const menu = el('character');
+    menu.innerHTML = '';
+    for (const id of [...this.figures.keys()].sort((a, b) => a - b)) {
+      const option = document.createElement('option');
+      option.value = String(id);
+      option.textContent = `character ${id}`;
+      option.style.color = this.hello.colors[id];
+      menu.appendChild(option);
+    }
+    menu.value = String(this.selected);
+  }
+
+  onMessage(msg, now) {
+    if (msg.type === 'hello') this.onHello(msg);
+    else if (msg.type === 'frame') this.onFrame(msg, now);
+    else if (msg.type === 'added') this.select(msg.character);
+    else if (msg.type === 'error') {
+      this.live.errors.push(msg.message);
+      this.status(`server: ${msg.message}`);
+    }
+  }
+
+  onHello(msg) {
+    this.hello = msg;
+    this.live.hello = msg;
+    el('speed').max = String(msg.max_speed_mps);
+    const styles = el('style');
+    styles.innerHTML = '<option value="">any</option>';
+    for (const s of msg.styles) {
+      const option = document.createElement('option');
+      option.value = option.textContent = s;
+      styles.appendChild(option);
+    }
+    el('style-label').style.display = msg.styles.length ? '' : 'none';
+  }
+
+  addFigure(c) {
+    const h = this.hello;
+    const m = { name: `character ${c.id}`, fps: h.fps, color: h.colors[c.id], names: h.joints, parents: h.parents,
+      frames: [c.positions.flat()] };
+    const entry = { fig: new Figure(m, 0, { path: false }), trail: new Trail(m.color), style: c.style };
+    this.stage.scene.add(entry.fig.group, entry.trail.line);
+    this.figures.set(c.id, entry);
+    this.refreshMenu();
+    if (!this.figures.has(this.selected) || this.figures.size === 1) this.select(c.id);
+  }
+
+  removeFigure(id) {
+    const entry = this.figures.get(id);
+    this.stage.scene.remove(entry.fig.group, entry.trail.line);
+    this.figures.delete(id);
+    this.refreshMenu();
+    if (id === this.selected && this.figures.size) this.select(this.figures.keys().next().value);
+  }
+
+  // The selected character's root, and the latency of a press: the first frame whose root
+  // moved, and the first at half the asked speed.
+  track(c, now) {
+    const roots = this.live.roots;
+    roots.push([now, c.root[0], c.root[2], c.heading]);
+    if (roots.length > 5000) roots.splice(0, 1000);
+    const press = this.press;
+    if (this.lastRoot && press) {
+      const step = Math.hypot(c.root[0] - this.lastRoot[0], c.root[2] - this.lastRoot[2]);
+      if (press.first === null && step > MOVED_M) press.first = now - press.t;
+      if (press.first !== null && step * this.hello.fps >= 0.5 * Number(el('speed').value)) {
+        this.live.latencies.push({ first_ms: press.first, half_speed_ms: now - press.t });
+        this.press = null;
+      }
+    }
+    this.lastRoot = c.root;
+  }
+
+  onFrame(msg, now) {
+    this.live.frames++;
+    const seen = new Set();
+    for (const c of msg.characters) {
+      seen.add(c.id);
+      if (!c.positions) continue;
+      const entry = this.figures.get(c.id);
+      if (!entry) this.addFigure(c);
+      else {
+        entry.fig.push(c.positions.flat());
+        entry.style = c.style;
+      }
+      const { fig, trail } = this.figures.get(c.id);
+      fig.pose(fig.motion.frames.length - 1);
+      trail.push(c.root);
+      if (c.id === this.selected) this.track(c, now);
+    }
+    for (const id of [...this.figures.keys()]) if (!seen.has(id)) this.removeFigure(id);
+    const n = this.figures.size;
+    const l = this.live.latencies[this.live.latencies.length - 1];
+    this.status(`frame ${msg.frame} · ${n} character${n === 1 ? '' : 's'}` +
+      (l ? ` · response ${l.first_ms.toFixed(0)} ms (half speed ${l.half_speed_ms.toFixed(0)} ms)` : ''));
+  }
+
+  wireControls() {
+    window.addEventListener('keydown', (e) => {
+      if (!KEYS[e.code]) return;
+      e.preventDefault();  // arrows would scroll or move a focused menu
+      if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
+      this.held.add(e.code);
+      this.sendInput(false);
+    });
+    window.addEventListener('keyup', (e) => { if (this.held.delete(e.code)) this.sendInput(false); });
+    window.addEventListener('blur', () => { this.held.clear(); this.sendInput(false); });  // released elsewhere
+    el('speed').addEventListener('input', () => {
+      el('speed-value').textContent = `${Number(el('speed').value).toFixed(1)} m/s`;
+      this.sendInput(false);
+    });
+    el('character').addEventListener('change', () => this.select(Number(el('character').value)));
+    el('style').addEventListener('change', () =>
+      this.send({ type: 'style', character: this.selected, style: el('style').value || null }));
+    el('add').addEventListener('click', () => this.send({ type: 'add', style: el('style').value || null }));
+    el('remove').addEventListener('click', () => {
+      if (this.figures.size > 1) this.send({ type: 'remove', character: this.selected });
+    });
+    window.addEventListener('resize', () => this.stage.resize());
+  }
+
+  // Framed: the selected character (follow) or everyone.
+  framedBox() {
+    const box = new THREE.Box3();
+    for (const [id, { fig }] of this.figures)
+      if (!el('follow').checked || id === this.selected) fig.boxAt(fig.motion.frames.length - 1, box);
+    if (box.isEmpty()) box.set(new THREE.Vector3(-1, 0, -1), new THREE.Vector3(1, 1.8, 1));
+    return box;
+  }
+
+  // One animation frame: gamepads polled, the grid moved along with the characters, camera eased.
+  tick(now, dt) {
+    this.sendInput(false);
+    const box = this.framedBox();
+    const center = box.getCenter(new THREE.Vector3());
+    if (!this.groundAt || Math.hypot(center.x - this.groundAt.x, center.z - this.groundAt.z) > 8) {
+      this.groundAt = center.clone();
+      this.stage.setGround(new THREE.Box3(center.clone().addScalar(-15), center.clone().addScalar(15)), 0);
+    }
+    this.stage.frame(box, dt);
+    this.stage.render();
+  }
+}
+
+export function startLive() {
+  const view = new LiveView();
+  let last = null;
+  const loop = (now) => {
+    view.tick(now, last === null ? 0 : (now - last) / 1000);
+    last = now;
+    requestAnimationFrame(loop);
+  };
+  view.stage.resize();
+  requestAnimationFrame(loop);
+}
