@@ -269,6 +269,11 @@ void run_sample(const SampleArgs& a) {
     io::write_json(base + ".json", sidecar);
   }
   if (!gltf_name.empty()) write_sample_gltf((std::filesystem::path(a.out_dir) / gltf_name).string(), sampled, a.prefix);
+  for (const nn::SampleStageTiming& stage : run.model->last_sample_timings())
+    if (stage.steps > 0 && stage.rows > 0)
+      std::fprintf(stderr, "%s: %.1f ms per predicted frame (%ld samples together), %.2f ms per sample-frame, %.2f s in all\n",
+                   stage.stage.c_str(), 1e3 * stage.seconds / stage.steps, stage.rows / stage.steps,
+                   1e3 * stage.seconds / stage.rows, stage.seconds);
   const int observed = plan.observed_frames;
   std::fprintf(stderr, "wrote %d motions of %d frames (%.1f s%s) to %s\n", a.n, total_frames, (total_frames - 1) / fps,
                observed > 0 ? (", the first " + std::to_string(observed) + " observed").c_str() : "", a.out_dir.c_str());

@@ -60,6 +60,15 @@ struct StreamFrame {
   torch::Tensor control;  // [B, C]: the given control, or the generated root motion
 };
 
+// Wall-clock time of a named stage of the last sample() call, for families that report one (MOJO:
+// its recursive projection).
+struct SampleStageTiming {
+  std::string stage;     // e.g. "projection"
+  double seconds = 0.0;  // wall-clock in the stage
+  long steps = 0;        // times the stage ran (MOJO: predicted frames, each for the whole batch)
+  long rows = 0;         // row-steps it processed (MOJO: sample-frames fitted)
+};
+
 // Opaque per-family state of a streaming (frame-by-frame) generation.
 class StreamState {
  public:
@@ -95,6 +104,9 @@ class MotionModel : public TrainableModel {
   // src. Lets a runtime add a character to a running batch. Families without per-row state throw
   // mosyn::Error (the default).
   virtual void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row);
+
+  // Timings of the stages of the last sample() call the family measures; none by default.
+  virtual std::vector<SampleStageTiming> last_sample_timings() const { return {}; }
 };
 
 // Seed of row `row` of a batch drawn from one seed: the seed itself for row 0 (so a batch of one

@@ -303,6 +303,11 @@ bool MojoImpl::can_project() const {
          context_.pose_dim == data::expected_pose_dim(data::PoseForm::kMarkers, 0, false);
 }
 
+std::vector<SampleStageTiming> MojoImpl::last_sample_timings() const {
+  if (last_timing_.calls == 0) return {};
+  return {{"projection", last_timing_.seconds, last_timing_.calls, last_timing_.frames}};
+}
+
 SampleOutput MojoImpl::sample(const SampleRequest& request) {
   torch::NoGradGuard no_grad;
   const int64_t d = context_.pose_dim, c = context_.control_dim, zdim = options_.latent;
@@ -338,6 +343,7 @@ SampleOutput MojoImpl::sample(const SampleRequest& request) {
     // Start every row's body at the last observed frame (its fitted markers are not fed back).
     auto last = history.select(1, history.size(1) - 1).to(torch::kCPU, torch::kFloat32).contiguous().clone();
     projector->project(last.data_ptr<float>(), frame_dim_);
+    projector->reset_timing();  // timings count predicted frames only
   }
   const bool dlow = options_.sampler == "dlow" && dlow_trained();
   const int64_t k = options_.dlow_k, f = options_.future;
@@ -366,7 +372,7 @@ SampleOutput MojoImpl::sample(const SampleRequest& request) {
     history = torch::cat({history, y}, 1);
     made += f;
   }
-  if (projector) last_timing_ = projector->timing();
+  last_timing_ = projector ? projector->timing() : mojo::ProjectionTiming{};
   auto all = torch::cat(chunks, 1).narrow(1, 0, t);
   return {all.narrow(2, 0, d).contiguous(), all.narrow(2, d, c).contiguous()};
 }

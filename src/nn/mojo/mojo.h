@@ -115,8 +115,9 @@ class MojoImpl : public MotionModel {
   DlowOut dlow_latents(const torch::Tensor& past, const torch::Tensor& eps);
   int dlow_band_count(int64_t frames) const;
   bool dlow_trained() const { return dlow_trained_.item<float>() > 0.5f; }
-  // Timing of the last sample()'s projections (zeros without projection).
+  // Timing of the last sample()'s projections of predicted frames (zeros without projection).
   mojo::ProjectionTiming last_projection_timing() const { return last_timing_; }
+  std::vector<SampleStageTiming> last_sample_timings() const override;
 
   torch::nn::GRU past_rnn{nullptr}, future_rnn{nullptr};
   torch::nn::Sequential posterior{nullptr};

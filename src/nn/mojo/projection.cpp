@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/kinematics.h"
+#include "nn/mojo/ceres_fit.h"
 
 namespace mosyn::nn::mojo {
 
@@ -36,7 +37,7 @@ void MarkerProjector::project(float* frames, int stride) {
         const int d = 3 * i + k;
         targets[i][k] = (row[d] * std_[d] + mean_[d]) * units_per_m;
       }
-    MarkerFitOptions fit;
+    CeresFitOptions fit;
     fit.pose_prior = options_.pose_prior;
     fit.max_iterations = options_.iterations;
     if (!started_[r]) {
@@ -45,7 +46,7 @@ void MarkerProjector::project(float* frames, int stride) {
       fit.pose_prior = 0.0;  // nothing to stay near yet
       started_[r] = true;
     }
-    rms_[r] = fit_markers(skeleton_, markers_, targets, &bodies_[r], 0, fit).rms_error * skeleton_.meters_per_unit;
+    rms_[r] = fit_markers_ceres(skeleton_, markers_, targets, &bodies_[r], 0, fit).rms_error * skeleton_.meters_per_unit;
     const WorldPoses world = forward_kinematics(skeleton_, bodies_[r]);
     const auto fitted = marker_positions(markers_, world, 0);
     for (int i = 0; i < m; ++i)

@@ -1,6 +1,6 @@
 // MOJO's recursive projection (Zhang et al. 2021, Sec. 3.4) on mosyn's skeletons: after every
 // predicted frame, the skeleton's joint rotations and root are fitted to the predicted markers
-// (Levenberg-Marquardt, warm-started from the previous frame's fit, a small pose-change prior)
+// (Ceres Levenberg-Marquardt, nn/mojo/ceres_fit.h; warm-started from the previous frame's fit, a small pose-change prior)
 // and the fitted body's own markers replace the prediction before it is fed back. Rows of a
 // batch are fitted in parallel threads. No LibTorch in the interface's numerics: frames come in
 // and go out as float rows of the model's (standardised) feature vector.
@@ -17,7 +17,7 @@ namespace mosyn::nn::mojo {
 struct ProjectionOptions {
   int iterations = 10;        // LM iterations per predicted frame (warm start: a few suffice)
   int first_iterations = 200; // for the first frame, from the canonical pose
-  double pose_prior = 1e-4;   // fit_markers' pose-change prior (metres^2 per radian^2)
+  double pose_prior = 1e-4;   // the fit's pose-change prior (metres^2 per radian^2)
   int threads = 0;            // rows fitted in parallel; 0 = hardware concurrency
 };
 
@@ -40,6 +40,7 @@ class MarkerProjector {
   // the canonical pose placed at its waist markers; later calls warm-start from the last fit.
   void project(float* frames, int stride);
   const ProjectionTiming& timing() const { return timing_; }
+  void reset_timing() { timing_ = {}; }
   // The last fitted body of each row (one-frame motions).
   const std::vector<Motion>& bodies() const { return bodies_; }
   // Root mean squared marker distance (metres) of the last call's fits, averaged over rows.
