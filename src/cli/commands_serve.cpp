@@ -5,6 +5,7 @@
 
 #include <iostream>
 #include <memory>
+#include <mutex>
 
 #include "cli/cli.h"
 #include "serve/server.h"
@@ -30,7 +31,11 @@ void run_serve(const ServeArgs& a) {
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
-  serve::Server server(a.run_dir, a.server, [](const std::string& line) { std::cerr << line << std::endl; });
+  std::mutex log_mutex;  // the server logs from several threads
+  serve::Server server(a.run_dir, a.server, [&log_mutex](const std::string& line) {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    std::cerr << line << std::endl;
+  });
   server.start();
   std::cout << "serving " << a.run_dir << " at " << server.url() << " (open it in a browser; Ctrl-C stops)"
             << std::endl;

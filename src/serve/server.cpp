@@ -111,7 +111,8 @@ struct Server::Impl {
       websocketpp::lib::error_code ec;
       server->close(hdl, close_code::policy_violation, reason, ec);
     };
-    auto session = std::make_shared<Session>(run_dir, so, send, close);
+    auto finished = [this](const SessionStats& stats) { say("connection closed: " + format_stats(stats)); };
+    auto session = std::make_shared<Session>(run_dir, so, send, close, finished);
     sessions[hdl] = session;
     open = static_cast<int>(sessions.size());
     session->start();
@@ -139,7 +140,7 @@ struct Server::Impl {
     reap();
   }
 
-  // Joins the workers that have ended (at once) and reports their streams.
+  // Joins the workers that have ended (at once).
   void reap() {
     for (auto it = closing.begin(); it != closing.end();) {
       if (!(*it)->finished()) {
@@ -147,7 +148,6 @@ struct Server::Impl {
         continue;
       }
       (*it)->join();
-      say("connection closed: " + format_stats((*it)->stats()));
       it = closing.erase(it);
     }
   }

@@ -21,7 +21,8 @@ struct ServerOptions {
   SessionOptions session;          // per connection: characters, limits, message rates
 };
 
-// A line for the operator (connections opened and closed, with their frame rate and CPU use).
+// A line for the operator (connections opened and closed, with their frame rate and CPU use);
+// called from the network thread and from the streams' workers, so it must be thread-safe.
 using Log = std::function<void(const std::string& line)>;
 
 class Server {

@@ -109,11 +109,12 @@ struct Session::Stream {
   }
 };
 
-Session::Session(std::string run_dir, const SessionOptions& options, Send send, Close close)
+Session::Session(std::string run_dir, const SessionOptions& options, Send send, Close close, Finished finished)
     : run_dir_(std::move(run_dir)),
       options_(options),
       send_(std::move(send)),
       close_(std::move(close)),
+      finished_callback_(std::move(finished)),
       tokens_(options.message_burst),
       last_receive_(std::chrono::steady_clock::now()) {}
 
@@ -281,11 +282,14 @@ void Session::work() {
       close_("stream error");
     }
   }
+  SessionStats stats;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.cpu_s = thread_cpu_seconds() - cpu0;
     stats_.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    stats = stats_;
   }
+  if (finished_callback_) finished_callback_(stats);
   finished_ = true;
 }
 

@@ -43,8 +43,10 @@ class Session {
   // close also from receive()'s caller; neither may call back into the Session.
   using Send = std::function<void(const std::string& text, bool droppable)>;
   using Close = std::function<void(const std::string& reason)>;
+  // Called by the worker as it ends, with its final stats.
+  using Finished = std::function<void(const SessionStats& stats)>;
 
-  Session(std::string run_dir, const SessionOptions& options, Send send, Close close);
+  Session(std::string run_dir, const SessionOptions& options, Send send, Close close, Finished finished = {});
   ~Session();  // stop() and join()
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -74,6 +76,7 @@ class Session {
   SessionOptions options_;
   Send send_;
   Close close_;
+  Finished finished_callback_;
   std::thread worker_;
   std::atomic<bool> stop_{false}, finished_{false};
   mutable std::mutex mutex_;  // guards the members below
