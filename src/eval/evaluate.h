@@ -115,7 +115,12 @@ struct EvalResult {
 //   over the N samples and the clips covering the latest time (real: n/a);
 // - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse"
 //   (evaluate_predictions on joint positions relative to the pelvis, joint 0; real: n/a) over
-//   clips with prefix + horizon frames;
+//   clips with prefix + horizon frames; then, on the raw predicted features of the same windows
+//   (MOJO's Tables 3, 4, 6; src/eval/protocols/body_validity.cpp): for marker-form runs
+//   "validity.rigid_head_mm", "validity.rigid_upper_torso_mm", "validity.rigid_lower_torso_mm"
+//   (Eq. 3 deformation, mm) and "validity.heel_skating" (LHEE/RHEE, MOJO's thresholds; real: the
+//   windows' real frames), and for every run "validity.bdf_m" (limb bone deformation, m; raw
+//   joints of the positions form, decoded joints otherwise; real: 0);
 // - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
 //   clips split into two halves by index parity);

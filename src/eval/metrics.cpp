@@ -13,6 +13,7 @@
 #include "core/mirror.h"
 #include "core/units.h"
 #include "data/augment.h"
+#include "data/control.h"
 
 namespace mosyn::eval {
 namespace {
@@ -225,6 +226,35 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
     if (options.both_feet ? sliding == static_cast<int>(markers.size()) : sliding > 0) ++skating;
   }
   return static_cast<double>(skating) / (motion.num_frames - 1);
+}
+
+MotionPositions feature_points_world(const std::vector<float>& pose, const std::vector<float>& control, int dim,
+                                     int from, int to, const std::vector<std::string>& names, double fps) {
+  const int points = dim / 3;
+  const size_t frames = control.size() / 3;
+  if (dim < 3 || dim % 3 != 0 || static_cast<int>(names.size()) != points || control.size() % 3 != 0 ||
+      pose.size() != frames * dim || from < 0 || to > static_cast<int>(frames) || from >= to)
+    throw Error("feature_points_world: pose [T, " + std::to_string(dim) + "], control [T, 3], " +
+                std::to_string(points) + " names and frames [from, to) inside [0, T) expected");
+  const std::vector<Eigen::Vector3d> floor = data::integrate_control(control);
+  std::vector<double> heading(frames, 0.0);
+  for (size_t t = 1; t < frames; ++t) heading[t] = heading[t - 1] + control[3 * t + 2];
+  MotionPositions m;
+  m.fps = fps;
+  m.num_frames = to - from;
+  m.num_joints = points;
+  m.joint_names = names;
+  m.parents.assign(points, -1);
+  m.bone_lengths_m.assign(points, 0.0);
+  for (int t = from; t < to; ++t) {
+    const double c = std::cos(heading[t]), s = std::sin(heading[t]);
+    for (int i = 0; i < points; ++i) {
+      const float* f = &pose[static_cast<size_t>(t) * dim + 3 * i];
+      // Heading rotation about +Y: (0, 0, 1) -> (sin h, 0, cos h), (1, 0, 0) -> (cos h, 0, -sin h).
+      m.positions_m.emplace_back(floor[t].x() + c * f[0] + s * f[2], f[1], floor[t].z() - s * f[0] + c * f[2]);
+    }
+  }
+  return m;
 }
 
 double bone_length_rmse_m(const MotionPositions& motion) {

@@ -127,6 +127,15 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
 // ---------------------------------------------------------------------------------------------
 // Body validity.
 
+// The points a raw pose row of the marker or joint-position form holds (data/representation.h:
+// dim / 3 points, each its heading-frame offset from the floor trajectory, metres, Y-up) placed in
+// the world of frames [from, to): each offset rotated by the heading and added to the floor
+// position, both integrated from the control (dx, dz, dtheta per frame) from the origin at heading
+// 0. pose [T, dim], control [T, 3] row-major; names [dim / 3] become joint_names (no parents).
+// Throws mosyn::Error when the sizes disagree or [from, to) is not inside [0, T).
+MotionPositions feature_points_world(const std::vector<float>& pose, const std::vector<float>& control, int dim,
+                                     int from, int to, const std::vector<std::string>& names, double fps);
+
 // Root mean square over frames and non-root joints of (|p_j - p_parent(j)| - bone_lengths_m[j]),
 // metres. 0 for a motion without bones or frames.
 double bone_length_rmse_m(const MotionPositions& motion);

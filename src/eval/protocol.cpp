@@ -107,21 +107,35 @@ const std::vector<std::vector<MotionPositions>>& EvalContext::foot_locked_sample
   return *locked_;
 }
 
-std::vector<Eigen::MatrixXd> EvalContext::continuations(size_t i, int p, int end, std::uint64_t seed) const {
+const std::vector<nn::SampledMotion>& EvalContext::raw_continuations(size_t i, int p, int end,
+                                                                    std::uint64_t seed) const {
+  const auto key = std::make_tuple(i, p, end, seed);
+  auto found = continued_.find(key);
+  if (found != continued_.end()) return found->second;
   const data::ClipRecord& rec = clip(i);
   const int d = run_.context.pose_dim, c = run_.context.control_dim;
   nn::SampleExtras extras = clip_labels(i);
   extras.prefix_pose = rows_of(rec.pose, 0, p, d);
   extras.prefix_control = rows_of(rec.control, 0, p, c);
-  std::vector<Eigen::MatrixXd> out;
+  std::vector<nn::SampledMotion> out;
   for (const auto& future :
        nn::sample_motions(run_, rows_of(rec.control, p, end, c), options_.num_samples, seed, options_.temperature, extras)) {
     nn::SampledMotion whole{extras.prefix_pose, extras.prefix_control};
     whole.pose.insert(whole.pose.end(), future.pose.begin(), future.pose.end());
     whole.control.insert(whole.control.end(), future.control.begin(), future.control.end());
-    out.push_back(motion_positions(nn::decode_motion(run_, whole)).sequence());
+    out.push_back(std::move(whole));
   }
-  return out;
+  return continued_.emplace(key, std::move(out)).first->second;
+}
+
+const std::vector<Eigen::MatrixXd>& EvalContext::continuations(size_t i, int p, int end, std::uint64_t seed) const {
+  const auto key = std::make_tuple(i, p, end, seed);
+  auto found = decoded_.find(key);
+  if (found != decoded_.end()) return found->second;
+  std::vector<Eigen::MatrixXd> out;
+  for (const auto& whole : raw_continuations(i, p, end, seed))
+    out.push_back(motion_positions(nn::decode_motion(run_, whole)).sequence());
+  return decoded_.emplace(key, std::move(out)).first->second;
 }
 
 const std::vector<std::unique_ptr<Protocol>>& all_protocols() {
@@ -132,6 +146,7 @@ const std::vector<std::unique_ptr<Protocol>>& all_protocols() {
     v.push_back(make_diversity_protocol());
     v.push_back(make_joint_errors_protocol());
     v.push_back(make_prediction_protocol());
+    v.push_back(make_body_validity_protocol());
     v.push_back(make_recognition_protocol());
     v.push_back(make_long_horizon_protocol());
     return v;

@@ -9,6 +9,8 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <map>
+#include <tuple>
 #include <memory>
 #include <optional>
 #include <string>
@@ -63,8 +65,12 @@ class EvalContext {
   nn::SampleExtras clip_labels(size_t i) const;
   // N continuations of clip i's first p real frames up to frame `end` (p < end <= its frames),
   // given its true control and labels: world joint-position sequences [end, J * 3] (metres) of
-  // the real prefix followed by the generated frames. Needs traits.prefix.
-  std::vector<Eigen::MatrixXd> continuations(size_t i, int p, int end, std::uint64_t seed) const;
+  // the real prefix followed by the generated frames. Needs traits.prefix. Decoded once per window.
+  const std::vector<Eigen::MatrixXd>& continuations(size_t i, int p, int end, std::uint64_t seed) const;
+  // The same continuations as raw features, before decoding: N motions of `end` frames (the real
+  // prefix's pose [end, D] and control [end, C] followed by the generated ones). Sampled once per
+  // (i, p, end, seed) and kept, so protocols scoring the same windows share the samples.
+  const std::vector<nn::SampledMotion>& raw_continuations(size_t i, int p, int end, std::uint64_t seed) const;
 
   // Calls the progress callback, if any.
   void report(const std::string& stage, int done, int total) const;
@@ -81,6 +87,8 @@ class EvalContext {
   std::optional<std::vector<std::vector<nn::SampledMotion>>> motions_;
   std::vector<std::vector<MotionPositions>> samples_;
   std::optional<std::vector<std::vector<MotionPositions>>> locked_;
+  mutable std::map<std::tuple<size_t, int, int, std::uint64_t>, std::vector<nn::SampledMotion>> continued_;
+  mutable std::map<std::tuple<size_t, int, int, std::uint64_t>, std::vector<Eigen::MatrixXd>> decoded_;
 };
 
 // One unit of evaluation.

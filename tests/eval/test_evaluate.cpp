@@ -87,7 +87,7 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
         "apd_m", "mean_pose_distance_m", "diversity.apd_m", "diversity.mean_pose_distance_m", "fse",
         "prediction.apd_m", "prediction.ade_m", "prediction.fde_m", "prediction.mmade_m", "prediction.mmfde_m",
         "prediction.fse", "joint_error.motion_prior.f20", "joint_error.pose_prior.f120",
-        "joint_error.motion_initial.f60", "joint_error.pose_initial.f20", "classifier.content_acc", "classifier.style_acc", "classifier.is", "classifier.fid"}) {
+        "joint_error.motion_initial.f60", "joint_error.pose_initial.f20", "validity.bdf_m", "classifier.content_acc", "classifier.style_acc", "classifier.is", "classifier.fid"}) {
     SCOPED_TRACE(key);
     ASSERT_NO_THROW(r.row(key));
     EXPECT_TRUE(std::isfinite(r.row(key).model));
@@ -96,6 +96,7 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
   EXPECT_TRUE(std::isnan(r.row("diversity.apd_m").real));
   EXPECT_TRUE(std::isnan(r.row("prediction.ade_m").real));
   EXPECT_EQ(r.row("fse").real, 0.0);
+  EXPECT_LT(r.row("validity.bdf_m").model, 1e-6);  // decoded through the skeleton: exact bones
   EXPECT_TRUE(std::isfinite(r.row("classifier.fid").real));  // two halves of the real clips
   EXPECT_GT(r.row("diversity.apd_m").model, 0.0);
   EXPECT_GE(r.row("prediction.mmade_m").model, 0.0);
@@ -239,10 +240,11 @@ TEST_F(EvaluateTest, RejectsBadOptions) {
 // joint errors, prediction, classifier (what `mosyn eval` always wrote).
 TEST_F(EvaluateTest, ProtocolsRunInOrderAndRowsKeepTheirOrder) {
   EXPECT_EQ(result_->protocols,
-            (std::vector<std::string>{"locomotion", "diversity", "joint_errors", "prediction", "recognition"}));
+            (std::vector<std::string>{"locomotion", "diversity", "joint_errors", "prediction", "body_validity",
+                                      "recognition"}));
   auto group = [](const std::string& key) {
     for (const auto& [prefix, g] : std::vector<std::pair<std::string, int>>{
-             {"diversity.", 1}, {"fse", 1}, {"joint_error.", 2}, {"prediction.", 3}, {"classifier.", 4}})
+             {"diversity.", 1}, {"fse", 1}, {"joint_error.", 2}, {"prediction.", 3}, {"validity.", 4}, {"classifier.", 5}})
       if (key.rfind(prefix, 0) == 0) return g;
     return 0;
   };

@@ -33,15 +33,17 @@ eval::EvalOptions everything_on() {
 TEST(Protocols, NamesAndOrder) {
   Names names;
   for (const auto& p : eval::all_protocols()) names.push_back(p->name());
-  EXPECT_EQ(names, (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "recognition",
-                          "long_horizon"}));
+  EXPECT_EQ(names, (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "body_validity",
+                          "recognition", "long_horizon"}));
 }
 
 TEST(Protocols, DefaultOptionsForAFamilyThatTakesControlAndContinuesAPrefix) {
   const auto t = traits(nn::InputUse::kTakes, true);
-  EXPECT_EQ(eval::protocols_for(t, {}), (Names{"locomotion", "diversity", "joint_errors", "prediction"}));
+  EXPECT_EQ(eval::protocols_for(t, {}),
+            (Names{"locomotion", "diversity", "joint_errors", "prediction", "body_validity"}));
   EXPECT_EQ(eval::protocols_for(t, everything_on()),
-            (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "recognition", "long_horizon"}));
+            (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "body_validity", "recognition",
+                   "long_horizon"}));
   eval::EvalOptions o;
   o.prediction = false;
   o.joint_errors = false;
@@ -56,9 +58,9 @@ TEST(Protocols, GeneratedRootMotionSkipsWhatNeedsAGivenControl) {
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, false), everything_on()),
             (Names{"locomotion", "diversity", "recognition", "long_horizon"}));
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, true), everything_on()),
-            (Names{"locomotion", "diversity", "prediction", "recognition", "long_horizon"}));
+            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon"}));
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kIgnores, true), everything_on()),
-            (Names{"locomotion", "diversity", "prediction", "recognition", "long_horizon"}));
+            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon"}));
 }
 
 TEST(Protocols, NoPrefixNoPredictionNorJointErrors) {
@@ -75,7 +77,8 @@ TEST(Protocols, ApplicabilityOfEachProtocol) {
     EXPECT_TRUE(takes);  // a family that takes control and continues motion has every protocol
     if (p->name() == "paths" || p->name() == "joint_errors") EXPECT_FALSE(generates);
     else EXPECT_TRUE(generates);
-    if (p->name() == "prediction" || p->name() == "joint_errors") EXPECT_FALSE(no_prefix);
+    if (p->name() == "prediction" || p->name() == "body_validity" || p->name() == "joint_errors")
+      EXPECT_FALSE(no_prefix);
     else EXPECT_TRUE(no_prefix);
   }
 }

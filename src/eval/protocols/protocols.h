@@ -27,6 +27,10 @@ std::unique_ptr<Protocol> make_joint_errors_protocol();
 // Stochastic prediction from a real prefix (DLow's ADE/FDE/MMADE/MMFDE). Families that continue a
 // prefix; on with prediction.
 std::unique_ptr<Protocol> make_prediction_protocol();
+// MOJO's body validity on the raw predicted features of the prediction windows: rigid-part
+// deformation and heel skating (marker form), limb bone deformation (every form). Families that
+// continue a prefix; on with prediction.
+std::unique_ptr<Protocol> make_body_validity_protocol();
 // Content / style accuracy, IS and FID by a classifier run. Every motion model; on with
 // classifier_dir.
 std::unique_ptr<Protocol> make_recognition_protocol();
