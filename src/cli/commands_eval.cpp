@@ -285,7 +285,7 @@ void run_view(const PictureArgs& a) {
 struct EvalArgs {
   std::string run_dir, data_dir, out, classifier;
   eval::EvalOptions options;
-  std::string foot_joints;
+  std::string foot_joints, protocols;
   bool no_prediction = false;
   bool no_joint_errors = false;
 };
@@ -301,6 +301,7 @@ void run_eval(EvalArgs a) {
   if (!feet.empty() && feet.size() != 2 && feet.size() != 4)
     throw UsageError("--foot-joints takes 2 names (left, right heel) or 4 (heels, then toes)");
   o.metrics.foot_joints = feet;
+  o.only_protocols = split_commas(a.protocols);
   o.prediction = !a.no_prediction;
   o.joint_errors = !a.no_joint_errors;
   if (!(o.error_frames_fps > 0)) throw UsageError("--error-fps must be positive");
@@ -486,6 +487,9 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
                   "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
   cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
+  cmd->add_option("--protocols", a->protocols,
+                  "run only these comma-separated protocols, e.g. prediction,body_validity (default: all that apply: "
+                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, long_horizon)");
   cmd->add_option("--error-frames", a->options.error_frames,
                   "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
       ->delimiter(',')

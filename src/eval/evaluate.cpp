@@ -107,8 +107,9 @@ EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, cons
   result.seed = o.seed;
   result.clip_indices = context.clip_indices();
   for (size_t i = 0; i < context.num_clips(); ++i) result.clips.push_back(context.clip(i).source);
+  const std::vector<std::string> chosen = protocols_for(run.traits, o);
   for (const auto& protocol : all_protocols()) {
-    if (!protocol->enabled(o) || !protocol->applies_to(run.traits)) continue;
+    if (std::find(chosen.begin(), chosen.end(), protocol->name()) == chosen.end()) continue;
     protocol->run(context, result);
     result.protocols.push_back(protocol->name());
   }

@@ -51,6 +51,10 @@ struct EvalOptions {
   // per window of long_horizon_window_s seconds: rows "long_horizon.*". 0 = off.
   double long_horizon_s = 0;
   double long_horizon_window_s = 10.0;
+  // When not empty, only these protocols run (of those the options enable and the run's traits
+  // allow; names as Protocol::name(), eval/protocol.h), e.g. {"prediction", "body_validity"} for
+  // the prediction tables alone. An unknown name is an error.
+  std::vector<std::string> only_protocols;
   int threads = 0;               // LibTorch CPU threads for loading runs (0 = all, < 0 = leave)
   std::string checkpoint = "checkpoint.pt";  // file of the run to evaluate (e.g. "best.pt"), run_dir overload
 };

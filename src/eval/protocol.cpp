@@ -155,9 +155,17 @@ const std::vector<std::unique_ptr<Protocol>>& all_protocols() {
 }
 
 std::vector<std::string> protocols_for(const nn::ModelTraits& traits, const EvalOptions& options) {
+  std::string known;
+  for (const auto& p : all_protocols()) known += (known.empty() ? "" : ", ") + p->name();
+  for (const std::string& name : options.only_protocols)
+    if (std::none_of(all_protocols().begin(), all_protocols().end(), [&](const auto& p) { return p->name() == name; }))
+      throw Error("evaluate: unknown protocol '" + name + "' (" + known + ")");
+  const auto& only = options.only_protocols;
   std::vector<std::string> names;
   for (const auto& p : all_protocols())
-    if (p->enabled(options) && p->applies_to(traits)) names.push_back(p->name());
+    if (p->enabled(options) && p->applies_to(traits) &&
+        (only.empty() || std::find(only.begin(), only.end(), p->name()) != only.end()))
+      names.push_back(p->name());
   return names;
 }
 

@@ -113,8 +113,9 @@ class Protocol {
 // long_horizon.
 const std::vector<std::unique_ptr<Protocol>>& all_protocols();
 
-// Names of the protocols of all_protocols() that are enabled by options and apply to traits, in
-// order (what evaluate runs).
+// Names of the protocols of all_protocols() that are enabled by options, apply to traits and are
+// among options.only_protocols when that is given, in order (what evaluate runs). Throws
+// mosyn::Error for an unknown name in only_protocols.
 std::vector<std::string> protocols_for(const nn::ModelTraits& traits, const EvalOptions& options);
 
 }  // namespace mosyn::eval

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "eval/protocol.h"
 
 using namespace mosyn;
@@ -81,4 +82,15 @@ TEST(Protocols, ApplicabilityOfEachProtocol) {
       EXPECT_FALSE(no_prefix);
     else EXPECT_TRUE(no_prefix);
   }
+}
+
+TEST(Protocols, OnlyTheChosenOnesAndUnknownNamesRefused) {
+  const auto t = traits(nn::InputUse::kTakes, true);
+  eval::EvalOptions o = everything_on();
+  o.only_protocols = {"body_validity", "prediction", "paths"};
+  EXPECT_EQ(eval::protocols_for(t, o), (Names{"paths", "prediction", "body_validity"}));  // in the usual order
+  o.synthetic_paths = false;  // chosen but not enabled: still off
+  EXPECT_EQ(eval::protocols_for(t, o), (Names{"prediction", "body_validity"}));
+  o.only_protocols = {"predictions"};
+  EXPECT_THROW(eval::protocols_for(t, o), Error);
 }
