@@ -97,6 +97,7 @@ struct Server::Impl {
   void on_open(Handle hdl) {
     auto con = ws.get_con_from_hdl(hdl);
     SessionOptions so = options.session;
+    so.threads = options.threads;
     if (con->get_resource().find("positions=0") != std::string::npos) so.positions = false;
     WsServer* server = &ws;
     const size_t max_buffered = options.max_buffered_bytes;

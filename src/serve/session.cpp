@@ -252,7 +252,9 @@ void Session::loop(Stream& s) {
 
 // Loads the run and makes the stream: a Generator with one slot per character, all free but the first.
 static void open_stream(const std::string& run_dir, const SessionOptions& options, std::optional<nn::Generator>* out) {
-  nn::LoadedRun run = nn::load_run(run_dir, {"checkpoint.pt", "cpu", /*threads: as the server set them*/ -1});
+  // Threads set here, in the worker: OpenMP's thread count is per calling thread, and a thread
+  // that never set it would run BLAS on a team as wide as the machine.
+  nn::LoadedRun run = nn::load_run(run_dir, {"checkpoint.pt", "cpu", options.threads});
   nn::GeneratorOptions g;
   g.batch = options.limits.max_characters;
   g.seed = options.seed;

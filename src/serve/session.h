@@ -20,6 +20,7 @@ namespace mosyn::serve {
 
 struct SessionOptions {
   Limits limits;                   // bounds of client messages; max_characters = the Generator's batch
+  int threads = 1;                 // LibTorch (and OpenMP BLAS) threads of the worker's steps
   int warmup_frames = -1;          // standing frames dropped when a character starts; -1 = the model's default
   std::uint64_t seed = 0;          // character n's noise seed derives from it (same inputs, same motion)
   bool positions = true;           // frames carry joint world positions (the page draws from them)

@@ -4,7 +4,9 @@
 // receiving; inputs steer, characters come and go; connection count and foreign origins limited.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
 #include <mutex>
 
@@ -130,6 +132,28 @@ TEST_F(ServerTest, InputSteersAndCharactersComeAndGo) {
   EXPECT_FALSE(c.closed());
 }
 
+// The server's part of the key-to-response latency, without a browser: from sending an input to
+// the first frame whose root moved (the input waits for the stream's next frame, then one step).
+TEST_F(ServerTest, AnInputShowsInTheNextFrames) {
+  start();
+  WsClient c(url_);
+  ASSERT_TRUE(c.wait_for([&] { return c.frames() >= 5; }, 30));
+  std::vector<double> latencies_ms;
+  for (int press = 0; press < 3; ++press) {
+    const double z0 = c.last_frame()["characters"][0]["root"][2];
+    const auto sent = std::chrono::steady_clock::now();
+    c.send(R"({"type":"input","character":0,"forward":1,"turn":0,"speed":1.3})");
+    ASSERT_TRUE(c.wait_for([&] { return c.last_frame()["characters"][0]["root"][2].get<double>() > z0 + 1e-4; }, 5));
+    latencies_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - sent).count());
+    c.send(R"({"type":"input","character":0,"forward":0,"turn":0})");
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // eases to a stop
+  }
+  std::sort(latencies_ms.begin(), latencies_ms.end());
+  std::printf("input to the first frame that responds (server path): min %.0f, median %.0f, max %.0f ms\n",
+              latencies_ms[0], latencies_ms[1], latencies_ms[2]);
+  EXPECT_LT(latencies_ms[1], 250);  // a 33-ms frame period and one step, with room for a loaded machine
+}
+
 TEST_F(ServerTest, ConnectionCountIsLimited) {
   start(/*max_connections=*/1);
   WsClient first(url_);
@@ -146,6 +170,30 @@ TEST_F(ServerTest, ForeignOriginsAreRefused) {
   WsClient foreign(url_, "http://evil.example");
   ASSERT_TRUE(foreign.wait_for([&] { return foreign.failed(); }, 10));
   EXPECT_EQ(foreign.http_status(), 403);
+}
+
+// Not run by ctest (a shipped model, 20 s): the frame rate and CPU of two connections streaming
+// models/moglow-locomotion, as the server logs them. The serve README's figures:
+//   build/tests/test_serve --gtest_also_run_disabled_tests --gtest_filter='*MeasureShippedModel*'
+TEST_F(ServerTest, DISABLED_MeasureShippedModel) {
+  ServerOptions o;
+  o.port = 0;
+  o.session.limits.max_characters = std::getenv("MOSYN_MAX_CHARACTERS") ? std::atoi(std::getenv("MOSYN_MAX_CHARACTERS")) : 4;
+  server_ = std::make_unique<Server>(std::string(MOSYN_SOURCE_DIR) + "/models/moglow-locomotion", o,
+                                     [this](const std::string& line) {
+                                       std::lock_guard<std::mutex> lock(log_mutex_);
+                                       log_.push_back(line);
+                                     });
+  server_->start();
+  url_ = "ws://127.0.0.1:" + std::to_string(server_->port()) + "/ws";
+  {
+    WsClient a(url_), b(url_);
+    ASSERT_TRUE(a.wait_for([&] { return a.frames() > 0 && b.frames() > 0; }, 60));
+    a.send(R"({"type":"input","character":0,"forward":1,"turn":0.3,"speed":1.3})");
+    std::this_thread::sleep_for(std::chrono::seconds(20));
+  }
+  server_.reset();
+  std::printf("%s", log_text().c_str());
 }
 
 TEST(Server, ABadRunDirectoryIsAClearError) {

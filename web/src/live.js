@@ -66,7 +66,7 @@ const el = (id) => document.getElementById(id);
 class LiveView {
   constructor() {
     this.stage = new Stage(el('view'));
-    this.live = { frames: 0, roots: [], latencies: [], errors: [], hello: null, closed: null };
+    this.live = { frames: 0, roots: [], latencies: [], errors: [], hello: null, closed: null, frameMs: 0, lagMs: 0 };
     window.mosynLive = this.live;
     this.figures = new Map();  // id -> { fig, trail, style }
     this.hello = null;
@@ -76,6 +76,8 @@ class LiveView {
     this.lastRoot = null;
     this.groundAt = null;
     this.held = new Set();  // key codes held down
+    // "?render=0": no drawing, to measure the page's network and script path apart from WebGL.
+    this.draw = !/[?&]render=0/.test(window.location.search);
     this.ws = new WebSocket(`ws://${window.location.host}/ws`);
     this.ws.onmessage = (e) => this.onMessage(JSON.parse(e.data), performance.now());
     this.ws.onclose = (e) => {
@@ -90,14 +92,15 @@ class LiveView {
   send(message) { if (this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(message)); }
 
   // Sends the held input when it changed (or the speed did); a press from standing starts a
-  // latency measurement.
-  sendInput(force) {
+  // latency measurement from `since` (a key event's own time stamp: when the browser got the key,
+  // however busy the page was then).
+  sendInput(force, since = performance.now()) {
     if (!this.hello || !this.figures.has(this.selected)) return;
     const input = heldInput(this.held);
     const speed = Number(el('speed').value);
     const key = `${this.selected} ${input.forward} ${input.turn} ${speed}`;
     if (!force && key === this.sent) return;
-    if (input.forward !== 0 && (!this.sent || this.sent.split(' ')[1] === '0')) this.press = { t: performance.now(), first: null };
+    if (input.forward !== 0 && (!this.sent || this.sent.split(' ')[1] === '0')) this.press = { t: since, first: null };
     this.sent = key;
     this.send({ type: 'input', character: this.selected, forward: input.forward, turn: input.turn, speed });
   }
@@ -190,6 +193,11 @@ class LiveView {
 
   onFrame(msg, now) {
     this.live.frames++;
+    // How far behind the stream the page is: arrival time against the frame's stream time, above
+    // the least seen (a page busy starting up receives a backlog of frames at once).
+    const offset = now - msg.time_s * 1000;
+    this.minOffset = Math.min(this.minOffset ?? offset, offset);
+    this.live.lagMs = offset - this.minOffset;
     const seen = new Set();
     for (const c of msg.characters) {
       seen.add(c.id);
@@ -218,7 +226,7 @@ class LiveView {
       e.preventDefault();  // arrows would scroll or move a focused menu
       if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
       this.held.add(e.code);
-      this.sendInput(false);
+      this.sendInput(false, e.timeStamp);
     });
     window.addEventListener('keyup', (e) => { if (this.held.delete(e.code)) this.sendInput(false); });
     window.addEventListener('blur', () => { this.held.clear(); this.sendInput(false); });  // released elsewhere
@@ -247,6 +255,7 @@ class LiveView {
 
   // One animation frame: gamepads polled, the grid moved along with the characters, camera eased.
   tick(now, dt) {
+    if (dt > 0) this.live.frameMs += (dt * 1000 - this.live.frameMs) * 0.1;  // the page's own frame time, smoothed
     this.sendInput(false);
     const box = this.framedBox();
     const center = box.getCenter(new THREE.Vector3());
@@ -255,7 +264,7 @@ class LiveView {
       this.stage.setGround(new THREE.Box3(center.clone().addScalar(-15), center.clone().addScalar(15)), 0);
     }
     this.stage.frame(box, dt);
-    this.stage.render();
+    if (this.draw) this.stage.render();
   }
 }
 
