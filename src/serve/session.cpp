@@ -264,8 +264,8 @@ static void open_stream(const std::string& run_dir, const SessionOptions& option
 }
 
 void Session::work() {
-  const double cpu0 = thread_cpu_seconds();
-  const auto wall0 = std::chrono::steady_clock::now();
+  double cpu0 = thread_cpu_seconds();
+  auto wall0 = std::chrono::steady_clock::now();
   try {
     Stream s;
     open_stream(run_dir_, options_, &s.generator);
@@ -277,6 +277,8 @@ void Session::work() {
     for (int k = 0; k < s.generator->batch(); ++k) s.generator->remove(k);
     send_(hello_json(s.run(), options_.limits), false);
     s.start_character(0, "", "", Eigen::Vector3d::Zero(), 0, options_.seed);
+    cpu0 = thread_cpu_seconds();  // the stats are those of streaming, without loading and warm-up
+    wall0 = std::chrono::steady_clock::now();
     loop(s);
   } catch (const std::exception& e) {  // a broken run or model: this connection ends, the server goes on
     if (!stop_) {

@@ -30,7 +30,8 @@ struct SessionOptions {
   double initial_speed_mps = 1.3;  // walking speed until the client sets one
 };
 
-// What a stream did, for the server's log: frames sent, wall and CPU seconds of its worker.
+// What a stream did, for the server's log: frames sent, wall and CPU seconds of its worker while
+// streaming (from the first frame on: loading the run and warming up excluded).
 struct SessionStats {
   long frames = 0;
   double wall_s = 0, cpu_s = 0;
