@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/skeleton.h"
 #include "io/file_name.h"
 
 namespace mosyn::cli {
@@ -45,8 +46,24 @@ void add_info_command(CLI::App& app, Action* action);
 void add_convert_command(CLI::App& app, Action* action);
 void add_data_commands(CLI::App& app, Action* action);
 void add_model_commands(CLI::App& app, Action* action);  // train, sample
-void add_eval_commands(CLI::App& app, Action* action);   // metrics, render, view
+void add_view_commands(CLI::App& app, Action* action);   // metrics, render, view (no LibTorch)
+void add_eval_commands(CLI::App& app, Action* action);   // eval, report, compare
 void add_serve_command(CLI::App& app, Action* action);   // the live page
+
+// The commands that run models and so need LibTorch: the light `mosyn` binary hands them, with the
+// whole command line, to `mosyn-torch` beside it (which also runs every light command).
+const std::vector<std::string>& torch_commands();
+
+// Parses argv into `app` and runs the registered action; maps errors to exit codes (0 ok, 1
+// runtime or input error, 2 usage) and prints them. What both binaries' main() do.
+int run_app(CLI::App& app, const Action& action, int argc, char** argv);
+
+// The file name of a path ("a/b.bvh" -> "b.bvh").
+std::string base_name(const std::string& path);
+
+// Reads BVH files as clips, with a progress line for many files. Throws mosyn::Error naming the
+// file for a malformed one.
+std::vector<Clip> read_clips(const std::vector<std::string>& paths);
 
 // Number of hardware threads, at least 1.
 int default_threads();

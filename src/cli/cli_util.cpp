@@ -3,9 +3,11 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <thread>
 
 #include "cli/cli.h"
+#include "core/error.h"
 
 namespace mosyn::cli {
 
@@ -66,5 +68,37 @@ std::vector<std::string> split_commas(const std::string& text) {
   return out;
 }
 
+const std::vector<std::string>& torch_commands() {
+  static const std::vector<std::string> kCommands = {"train", "sample", "export", "eval", "report", "compare", "serve"};
+  return kCommands;
+}
+
+int run_app(CLI::App& app, const Action& action, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // CLI11 prints the message (or the help text); any usage problem exits with 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  try {
+    if (action) action();
+    return 0;
+  } catch (const UsageError& e) {
+    std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
+    return 2;
+  } catch (const InvalidArgument& e) {  // a job's option check: a usage error too
+    std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
+    return 2;
+  } catch (const Error& e) {
+    std::cerr << "mosyn: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "mosyn: error: out of memory\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "mosyn: error: " << e.what() << "\n";
+    return 1;
+  }
+}
 
 }  // namespace mosyn::cli

@@ -1,44 +1,58 @@
-// mosyn: probabilistic human-motion synthesis from the command line.
-// Exit codes: 0 ok, 1 runtime or input error, 2 usage error.
+// mosyn: probabilistic human-motion synthesis from the command line. This binary links no LibTorch,
+// so commands that only read, convert, measure or draw files start at once; the commands that run
+// models (cli.h torch_commands()) are handed, with the whole command line, to `mosyn-torch` in the
+// same folder. Exit codes: 0 ok, 1 runtime or input error, 2 usage error.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cstring>
 #include <iostream>
+#include <string>
 
 #include "cli/cli.h"
-#include "core/error.h"
+
+namespace {
+
+// The first argument that is not an option: the sub-command, or "" when there is none.
+std::string subcommand_of(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (argv[i][0] != '-') return argv[i];
+  return "";
+}
+
+// mosyn-torch beside this executable (/proc/self/exe, else argv[0]).
+std::string torch_binary(const char* argv0) {
+  char self[PATH_MAX];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+  std::string path = n > 0 ? std::string(self, static_cast<size_t>(n)) : std::string(argv0);
+  const size_t slash = path.rfind('/');
+  return (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + "mosyn-torch";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
+  const std::string command = subcommand_of(argc, argv);
+  const auto& heavy = mosyn::cli::torch_commands();
+  if (std::find(heavy.begin(), heavy.end(), command) != heavy.end()) {
+    const std::string target = torch_binary(argv[0]);
+    execv(target.c_str(), argv);  // returns only on failure
+    std::cerr << "mosyn: error: '" << command << "' runs models and needs " << target << ": " << std::strerror(errno)
+              << " (build the mosyn-torch target)\n";
+    return 1;
+  }
   CLI::App app{"mosyn: probabilistic human-motion synthesis (BVH in, many natural motions out)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("mosyn 0.1.0"));
+  std::string models = "Commands that run models (see mosyn <command> --help):";
+  for (const auto& c : heavy) models += " " + c;
+  app.footer(models);
   mosyn::cli::Action action;
   mosyn::cli::add_info_command(app, &action);
   mosyn::cli::add_convert_command(app, &action);
   mosyn::cli::add_data_commands(app, &action);
-  mosyn::cli::add_model_commands(app, &action);
-  mosyn::cli::add_eval_commands(app, &action);
-  mosyn::cli::add_serve_command(app, &action);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // CLI11 prints the message (or the help text); any usage problem exits with 2.
-    return app.exit(e) == 0 ? 0 : 2;
-  }
-  try {
-    if (action) action();
-    return 0;
-  } catch (const mosyn::cli::UsageError& e) {
-    std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
-    return 2;
-  } catch (const mosyn::InvalidArgument& e) {  // a job's option check: a usage error too
-    std::cerr << "mosyn: " << e.what() << "\n(see --help)\n";
-    return 2;
-  } catch (const mosyn::Error& e) {
-    std::cerr << "mosyn: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::bad_alloc&) {
-    std::cerr << "mosyn: error: out of memory\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "mosyn: error: " << e.what() << "\n";
-    return 1;
-  }
+  mosyn::cli::add_view_commands(app, &action);
+  return mosyn::cli::run_app(app, action, argc, argv);
 }

@@ -70,17 +70,6 @@ EvalResult EvalResult::from_json(const nlohmann::json& j) {
   return r;
 }
 
-std::string format_metric_value(double v) {
-  if (!std::isfinite(v)) return "n/a";
-  if (std::abs(v) < 1e-9) v = 0;  // rounding noise of exact zeros (e.g. rigid parts under FK)
-  char buf[32];
-  if (v == std::round(v) && std::abs(v) < 1e9)
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-  else
-    std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
-
 std::string format_markdown(const EvalResult& result) {
   std::string s = "| metric | model | real data |\n|---|---|---|\n";
   for (const auto& r : result.rows)

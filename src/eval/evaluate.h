@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "data/dataset.h"
-#include "eval/set_metrics.h"
+#include "metrics/set_metrics.h"
 #include "nn/run.h"
 
 namespace mosyn::eval {
@@ -149,8 +149,5 @@ EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, co
 
 // The table as Markdown: | metric | model | real data |, n/a for NaN.
 std::string format_markdown(const EvalResult& result);
-
-// A value as the table shows it: "n/a" for NaN, integers without decimals, else 4 significant digits.
-std::string format_metric_value(double value);
 
 }  // namespace mosyn::eval

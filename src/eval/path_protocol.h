@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "eval/metrics.h"
-#include "eval/set_metrics.h"
+#include "metrics/metrics.h"
+#include "metrics/set_metrics.h"
 #include "nn/run.h"
 
 namespace mosyn::eval {

@@ -18,8 +18,8 @@
 
 #include "data/dataset.h"
 #include "eval/evaluate.h"
-#include "eval/metrics.h"
-#include "eval/set_metrics.h"
+#include "metrics/metrics.h"
+#include "metrics/set_metrics.h"
 #include "nn/run.h"
 #include "nn/sampling.h"
 #include "nn/traits.h"

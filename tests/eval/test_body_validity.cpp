@@ -1,4 +1,4 @@
-// Body validity on raw predicted features (eval/metrics.h feature_points_world, the body_validity
+// Body validity on raw predicted features (metrics/metrics.h feature_points_world, the body_validity
 // protocol's placement of marker and joint features in the world).
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include "core/synthetic.h"
 #include "core/trajectory.h"
 #include "data/representation.h"
-#include "eval/metrics.h"
+#include "metrics/metrics.h"
 
 using namespace mosyn;
 

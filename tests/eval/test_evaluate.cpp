@@ -15,7 +15,7 @@
 #include "eval/evaluate.h"
 #include "eval/path_protocol.h"
 #include "eval/report.h"
-#include "eval/set_metrics.h"
+#include "metrics/set_metrics.h"
 #include "nn/run.h"
 #include "nn/training/train.h"
 

@@ -6,8 +6,8 @@
 
 #include "core/error.h"
 #include "core/synthetic.h"
-#include "eval/metrics.h"
-#include "eval/set_metrics.h"
+#include "metrics/metrics.h"
+#include "metrics/set_metrics.h"
 
 namespace mosyn::eval {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <fstream>
 
-#include "eval/metrics.h"
+#include "metrics/metrics.h"
 #include "io/bvh.h"
 
 namespace mosyn::eval {

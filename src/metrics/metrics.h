@@ -1,6 +1,7 @@
 // Objective metrics of motion quality, diversity and accuracy, computed the same way for generated
-// motions and for real held-out clips. Plain Eigen/C++ (no torch). Definitions and the choices made
-// where the papers leave things open are in src/eval/README.md.
+// motions and for real held-out clips. Plain Eigen/C++: the metrics layer links no LibTorch, so
+// commands that only measure files start at once; namespace mosyn::eval, whose protocols use it.
+// Definitions and the choices made where the papers leave things open are in src/eval/README.md.
 //
 // Conventions:
 // - Positions are world joint positions in METRES, row-major [T, J] (index t * J + j).

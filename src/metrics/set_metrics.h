@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "eval/metrics.h"
+#include "metrics/metrics.h"
 
 namespace mosyn::eval {
 
@@ -30,6 +30,9 @@ struct MetricValue {
 // joints), mean distance to the per-frame mean pose (m, averaged over frames; same conditions),
 // spectral entropy (mean over motions). Throws mosyn::Error for an empty set.
 std::vector<MetricValue> set_metrics(const std::vector<MotionPositions>& motions, const SetMetricsOptions& options = {});
+
+// A value as the table shows it: "n/a" for NaN, integers without decimals, else 4 significant digits.
+std::string format_metric_value(double value);
 
 // {"key": value, ...} with NaN written as null.
 nlohmann::json metrics_to_json(const std::vector<MetricValue>& values);

@@ -1,6 +1,7 @@
-#include "eval/set_metrics.h"
+#include "metrics/set_metrics.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -83,6 +84,17 @@ nlohmann::json metrics_to_json(const std::vector<MetricValue>& values) {
   nlohmann::json j = nlohmann::json::object();
   for (const auto& v : values) j[v.key] = std::isfinite(v.value) ? nlohmann::json(v.value) : nlohmann::json(nullptr);
   return j;
+}
+
+std::string format_metric_value(double v) {
+  if (!std::isfinite(v)) return "n/a";
+  if (std::abs(v) < 1e-9) v = 0;  // rounding noise of exact zeros (e.g. rigid parts under FK)
+  char buf[32];
+  if (v == std::round(v) && std::abs(v) < 1e9)
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+  else
+    std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
 }
 
 }  // namespace mosyn::eval
