@@ -35,7 +35,7 @@ struct SessionOptions {
 struct SessionStats {
   long frames = 0;
   double wall_s = 0, cpu_s = 0;
-  long late_frames = 0;  // frames started more than one period late (an overloaded machine)
+  long late_frames = 0;  // steps that ended after the next frame was due (an overloaded machine)
 };
 
 class Session {
