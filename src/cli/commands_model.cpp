@@ -95,6 +95,8 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
   if (given("--init-from")) o.init_from = flags.init_from;
   o.resume = flags.resume;
   o.overwrite = flags.overwrite;
+  // One of N processes when a launcher (torchrun, srun, or by hand) set RANK, WORLD_SIZE, ...
+  o.distributed = nn::distributed_from_environment();
   if (!a.preset.empty()) o.model_config["preset"] = a.preset;
   if (o.resume && o.overwrite) throw UsageError("--resume and --overwrite exclude each other");
   if (o.resume && !o.init_from.empty()) throw UsageError("--resume and --init-from exclude each other");
@@ -138,6 +140,7 @@ void run_train(const TrainArgs& a) {
   callbacks.should_stop = [] { return g_interrupted.load(); };
   const nn::TrainResult r = nn::train(o, callbacks);
   progress.finish();
+  if (o.distributed.rank != 0) return;  // rank 0 reports for the group
   if (r.stopped_early)
     std::fprintf(stderr, "interrupted: checkpoint at step %d saved in %s (continue with --resume)\n", r.step,
                  r.run_dir.c_str());
@@ -317,7 +320,8 @@ void add_train_command(CLI::App& app, Action* action) {
   train->add_option("--config", t->config_file, "JSON file {\"model\": {...}, \"train\": {...}}; flags override it");
   train->add_option("--preset", t->preset, "named model preset, e.g. 'paper' for MoGlow's published size");
   train->add_option("--steps", o.steps, "total optimiser steps")->capture_default_str();
-  train->add_option("--batch", o.batch, "windows per batch")->capture_default_str();
+  train->add_option("--batch", o.batch, "windows per batch (global: shared by the processes of a data-parallel run)")
+      ->capture_default_str();
   train->add_option("--window", o.window, "frames per training window (0: the dataset's)");
   train->add_option("--lr", o.lr, "peak learning rate (Adam)")->capture_default_str();
   train->add_option("--warmup", o.warmup, "Noam warm-up steps (0: constant learning rate)")->capture_default_str();

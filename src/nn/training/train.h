@@ -2,8 +2,9 @@
 //
 // A run directory holds
 //   config.json    {"format": "mosyn-run-1", "family", "model" (resolved model config),
-//                   "context" (ModelContext), "train" (TrainOptions), "dataset" (skeleton, layout,
-//                   fps, window, label vocabularies, file split: nn/run_info.h)}
+//                   "context" (ModelContext), "train" (TrainOptions), "world_size" (processes of
+//                   the latest start or resume), "dataset" (skeleton, layout, fps, window, label
+//                   vocabularies, file split: nn/run_info.h)}
 //   stats.json     the dataset's standardisation statistics (nn/run_info.h stats_to_json)
 //   checkpoint.pt  latest state: model parameters and buffers, the current stage's optimiser
 //                  state, step, stage and step within it, data-order RNG, torch CPU RNG, best
@@ -18,6 +19,24 @@
 // Training runs the model's stages (TrainableModel::training_stages, nn/training/stage.h) one
 // after another; most families have one, built from TrainOptions (steps, lr, warmup). Each stage
 // starts a fresh optimiser; validation, logging and checkpointing also happen at a stage's end.
+//
+// Data-parallel training (TrainOptions::distributed, from the launcher's environment:
+// nn/training/distributed.h): N processes run the same options on the same dataset. `batch` is
+// the global batch: every rank draws the same global batch of windows from the same seeded data
+// order and reads its contiguous shard (B/N windows, sizes differing by at most one); after the
+// backward each rank's gradients, weighted by its share of the batch, are summed in one flattened
+// allreduce, so clipping and the optimiser step see the gradient of the whole batch's mean loss
+// and every rank keeps identical weights and optimiser state. This equals one process with batch
+// B exactly (up to float rounding) for losses that are means over the batch's windows (MoGlow's
+// is; a family whose loss is not checks its own case); what stays per rank are dropout masks and other random draws inside the loss
+// (each rank its own torch seed), and buffers a model updates from its data in training. A
+// stage's first step runs on rank 0 alone with the whole batch, so that data-dependent
+// initialisation (MoGlow's ActNorm) sees what one process sees; its weights then go to every
+// rank. Validation is sharded the same way and the sums reduced. Rank 0 alone creates, locks and
+// writes the run directory (config, stats, checkpoints, log) and reports progress and messages;
+// its options (steps, batch, lr, ...) and, on resume, its checkpoint are sent to the other ranks,
+// which need only the dataset (no shared file system), so a run resumes at any world size. A stop
+// request on any rank (should_stop) ends every rank after the current step.
 #pragma once
 
 #include <cstdint>
@@ -28,6 +47,7 @@
 #include <string>
 
 #include "data/dataset.h"
+#include "nn/training/distributed.h"
 #include "nn/training/stage.h"
 
 namespace mosyn::nn {
@@ -39,7 +59,7 @@ struct TrainOptions {
   nlohmann::json model_config = nlohmann::json::object();  // overrides of the family defaults
   int steps = 10000;              // total optimiser steps (on resume: the new total); families with
                                   // several stages divide them as they declare
-  int batch = 100;                // windows per batch
+  int batch = 100;                // windows per batch (global: all ranks of a data-parallel run together)
   int window = 0;                 // frames per window; 0 = the dataset's window_frames
   double lr = 1e-3;               // peak learning rate (Adam; the default stage's)
   int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
@@ -58,6 +78,9 @@ struct TrainOptions {
   int validate_every = 500;       // steps between validations (and at the last step); 0 = never
   int val_windows = 256;          // size of the fixed validation subset (evenly spread windows)
   int log_every = 10;             // steps between progress reports and log lines
+  // This process's place in a data-parallel run (see above); not saved in "train" (config.json
+  // records "world_size"). Default: one process.
+  DistributedOptions distributed;
 
   nlohmann::json to_json() const;
   // Reads the keys to_json writes; unknown keys throw mosyn::Error.
