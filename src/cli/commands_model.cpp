@@ -336,6 +336,9 @@ void add_train_command(CLI::App& app, Action* action) {
                     "config (overridden by --config/--preset), a fresh optimiser and step count")
       ->check(CLI::ExistingDirectory);
   train->add_flag("--overwrite", o.overwrite, "replace an existing run in --out");
+  train->footer(
+      "Data-parallel: run N copies with RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT set (torchrun --no-python, srun, "
+      "or by hand); --batch is the global batch, rank 0 writes the run (README: Training on several processes).");
   train->callback([action, t] { *action = [t] { run_train(*t); }; });
 }
 

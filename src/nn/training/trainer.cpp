@@ -114,7 +114,7 @@ class Trainer {
   void save(const std::string& path);
   [[noreturn]] void fail(const std::string& what, int step) const;
 
-  TrainOptions opts_;  // a copy: the other ranks of a data-parallel run take rank 0's (connect)
+  TrainOptions opts_;  // a copy: the other ranks of a data-parallel run take rank 0's (constructor)
   const data::Dataset& dataset_;
   const TrainCallbacks& cb_;
   const training::RunPaths paths_;
