@@ -98,6 +98,15 @@ void BodyValidityProtocol::run(EvalContext& ctx, EvalResult& result) const {
   if (markers) heels.left_heel = index_of(names, "LHEE"), heels.right_heel = index_of(names, "RHEE");
   std::vector<std::vector<double>> deformation(parts.size()), real_deformation(parts.size());
   std::vector<double> skating, real_skating, bdf;
+  // BDF on the raw joints of the positions form, else on the joints decoded through the skeleton
+  // (named as the decoded real clips are): the limb bones are found once.
+  MotionPositions decoded_header;
+  if (!positions && !ctx.real().empty()) {
+    const MotionPositions& r = ctx.real().front();
+    decoded_header = {r.name, r.fps, 0, r.num_joints, r.up_axis, r.joint_names, r.parents, r.bone_lengths_m, {}};
+  }
+  const std::vector<RigidPart> bones =
+      limb_bones(run.dataset.skeleton, positions ? names : decoded_header.joint_names);
   for (size_t i = 0; i < ctx.num_clips(); ++i) {
     const data::ClipRecord& rec = ctx.clip(i);
     if (rec.num_frames < p + h) continue;
@@ -115,23 +124,20 @@ void BodyValidityProtocol::run(EvalContext& ctx, EvalResult& result) const {
         for (size_t k = 0; k < parts.size(); ++k) deformation[k].push_back(rigid_part_deformation_m(m, parts[k]));
       }
     }
-    // BDF on the raw joints of the positions form, else on the joints decoded through the skeleton.
+    if (bones.empty()) continue;
     std::vector<MotionPositions> joints;
     if (positions) {
-      joints = predicted;
+      joints = std::move(predicted);
     } else {
       for (const auto& s : ctx.continuations(i, p, p + h, seed)) {
-        MotionPositions m = ctx.real().at(i);  // names, parents, fps of the decoded skeleton
+        MotionPositions m = decoded_header;
         m.num_frames = h;
-        m.positions_m.clear();
         for (int t = p; t < p + h; ++t)
           for (int j = 0; j < m.num_joints; ++j) m.positions_m.emplace_back(s.row(t).segment<3>(3 * j).transpose());
         joints.push_back(std::move(m));
       }
     }
     for (const auto& m : joints) {
-      const std::vector<RigidPart> bones = limb_bones(run.dataset.skeleton, m.joint_names);
-      if (bones.empty()) continue;
       double sum = 0.0;
       for (const auto& b : bones) sum += rigid_part_deformation_m(m, b);
       bdf.push_back(sum / bones.size());
