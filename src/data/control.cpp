@@ -276,8 +276,10 @@ std::vector<float> smooth_control(const std::vector<float>& control, double fps,
   return out;
 }
 
-std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad) {
+std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad,
+                                               std::vector<double>* headings_rad) {
   std::vector<Eigen::Vector3d> out;
+  if (headings_rad) headings_rad->clear();
   Eigen::Vector2d p(0, 0);
   double h = start_heading_rad;
   for (size_t t = 0; t < control.size() / 3; ++t) {
@@ -287,6 +289,7 @@ std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control
       h += control[3 * t + 2];
     }
     out.emplace_back(p.x(), 0.0, p.y());
+    if (headings_rad) headings_rad->push_back(h);
   }
   return out;
 }

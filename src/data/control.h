@@ -59,7 +59,9 @@ std::vector<float> control_from_csv(const std::string& path);
 std::vector<float> smooth_control(const std::vector<float>& control, double fps, double sigma_s);
 
 // The ground path (metres, [T] points with the up coordinate 0, Y-up) that a control traces from
-// the origin with the given start heading; used to draw and check paths.
-std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad = 0.0);
+// the origin with the given start heading; used to draw and check paths. headings_rad, when given,
+// receives the heading at every frame [T] (radians, unwrapped).
+std::vector<Eigen::Vector3d> integrate_control(const std::vector<float>& control, double start_heading_rad = 0.0,
+                                               std::vector<double>* headings_rad = nullptr);
 
 }  // namespace mosyn::data

@@ -236,9 +236,8 @@ MotionPositions feature_points_world(const std::vector<float>& pose, const std::
       pose.size() != frames * dim || from < 0 || to > static_cast<int>(frames) || from >= to)
     throw Error("feature_points_world: pose [T, " + std::to_string(dim) + "], control [T, 3], " +
                 std::to_string(points) + " names and frames [from, to) inside [0, T) expected");
-  const std::vector<Eigen::Vector3d> floor = data::integrate_control(control);
-  std::vector<double> heading(frames, 0.0);
-  for (size_t t = 1; t < frames; ++t) heading[t] = heading[t - 1] + control[3 * t + 2];
+  std::vector<double> heading;
+  const std::vector<Eigen::Vector3d> floor = data::integrate_control(control, 0.0, &heading);
   MotionPositions m;
   m.fps = fps;
   m.num_frames = to - from;
