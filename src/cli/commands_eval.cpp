@@ -17,6 +17,8 @@
 #include "io/json_file.h"
 #include "nn/run.h"
 #include "nn/sampling.h"
+#include "render/image_io.h"
+#include "render/plot.h"
 #include "render/scene.h"
 #include "render/view.h"
 
@@ -29,7 +31,33 @@ struct EvalArgs {
   std::string foot_joints, protocols;
   bool no_prediction = false;
   bool no_joint_errors = false;
+  std::string plot;  // PNG of the curves
 };
+
+// DFN's Fig. 9 from the evaluation's curves: each prefix's distance to the per-frame mean pose over
+// time (s, x axis; metres, y axis) with its spread, over the training data's level as a band.
+void write_curves_plot(const eval::EvalResult& r, const std::string& path) {
+  if (r.curves.empty()) throw Error(path + ": the evaluation made no curve to plot (no prefix generation ran)");
+  std::vector<render::PlotSeries> series;
+  std::vector<render::PlotBand> bands;
+  for (size_t k = 0; k < r.curves.size(); ++k) {
+    const eval::EvalCurve& c = r.curves[k];
+    render::PlotSeries s;
+    for (size_t t = 0; t < c.mean.size(); ++t) s.x.push_back(t / c.fps);
+    s.y = c.mean;
+    s.spread = c.spread;
+    s.color = render::motion_color(static_cast<int>(k));
+    s.spread_alpha = 0.12;
+    series.push_back(std::move(s));
+  }
+  if (std::isfinite(r.curves[0].reference_mean))
+    bands.push_back({r.curves[0].reference_mean, r.curves[0].reference_spread});
+  render::write_png(path, render::plot_series(series, bands));
+  std::fprintf(stderr,
+               "wrote %s (x: seconds from the first observed frame; y: metres; grey band: training data, "
+               "mean +- std)\n",
+               path.c_str());
+}
 
 void run_eval(EvalArgs a) {
   eval::EvalOptions& o = a.options;
@@ -49,6 +77,12 @@ void run_eval(EvalArgs a) {
   if (o.initial_frames < 1) throw UsageError("--initial-frames must be >= 1");
   if (!(o.long_horizon_s >= 0) || !(o.long_horizon_window_s > 0))
     throw UsageError("--long-horizon must not be negative and --long-horizon-window must be positive");
+  if (!(o.prefix_generation_s >= 0) || o.prefix_generation_frames < 1 || o.prefix_generation_clips < 1 ||
+      !(o.transition_window_s > 0))
+    throw UsageError("--prefix-generation must not be negative; --prefix-frames and --prefix-clips must be >= 1; "
+                     "--transition-window must be positive");
+  if (!a.plot.empty() && !(o.prefix_generation_s > 0))
+    throw UsageError("--plot draws the curves of --prefix-generation: give it too");
   o.classifier_dir = a.classifier;
   const data::Dataset dataset = data::Dataset::open(a.data_dir);
   ProgressLine progress;
@@ -64,6 +98,7 @@ void run_eval(EvalArgs a) {
     io::write_json(a.out, j);
     std::fprintf(stderr, "wrote %s\n", a.out.c_str());
   }
+  if (!a.plot.empty()) write_curves_plot(r, a.plot);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -168,7 +203,7 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
   cmd->add_option("--protocols", a->protocols,
                   "run only these comma-separated protocols, e.g. prediction,body_validity (default: all that apply: "
-                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, long_horizon)");
+                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, long_horizon, prefix_generation)");
   cmd->add_option("--error-frames", a->options.error_frames,
                   "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
       ->delimiter(',')
@@ -188,6 +223,17 @@ void add_eval_command(CLI::App& app, Action* action) {
                   "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");
   cmd->add_option("--long-horizon-window", a->options.long_horizon_window_s,
                   "long horizon: window length, s (default 10)");
+  cmd->add_option("--prefix-generation", a->options.prefix_generation_s,
+                  "families that continue a prefix and make their own root motion: N samples of SECONDS after "
+                  "the first --prefix-frames of --prefix-clips held-out clips; stability, Fig. 9, transitions "
+                  "(rows prefix_generation.*; default off)");
+  cmd->add_option("--prefix-frames", a->options.prefix_generation_frames,
+                  "prefix generation: real frames observed (default 20)");
+  cmd->add_option("--prefix-clips", a->options.prefix_generation_clips,
+                  "prefix generation: held-out clips whose starts are continued (default 4)");
+  cmd->add_option("--transition-window", a->options.transition_window_s,
+                  "prefix generation with --classifier: seconds per recognised window (default 2)");
+  cmd->add_option("--plot", a->plot, "write the prefix generation's curves (DFN Fig. 9) as a PNG");
   cmd->add_option("--foot-joints", a->foot_joints,
                   "comma-separated left,right heel joints [,left,right toe] (default: found by name)");
   cmd->add_option("--threads", a->options.threads, "CPU threads (default: all cores)");

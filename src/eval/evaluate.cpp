@@ -45,6 +45,18 @@ nlohmann::json EvalResult::to_json() const {
   }
   j["rows"] = list;
   j["metrics"] = map;
+  if (!curves.empty()) {
+    nlohmann::json cs = nlohmann::json::array();
+    for (const auto& c : curves) {
+      nlohmann::json mean = nlohmann::json::array(), spread = nlohmann::json::array();
+      for (double v : c.mean) mean.push_back(number_or_null(v));
+      for (double v : c.spread) spread.push_back(number_or_null(v));
+      cs.push_back({{"key", c.key}, {"label", c.label}, {"fps", c.fps}, {"mean", mean}, {"spread", spread},
+                    {"reference_mean", number_or_null(c.reference_mean)},
+                    {"reference_spread", number_or_null(c.reference_spread)}});
+    }
+    j["curves"] = cs;
+  }
   return j;
 }
 
@@ -62,6 +74,21 @@ EvalResult EvalResult::from_json(const nlohmann::json& j) {
     for (const auto& row : j.at("rows"))
       r.rows.push_back({row.at("key").get<std::string>(), row.at("label").get<std::string>(), number_from(row.at("model")),
                         number_from(row.at("real"))});
+    if (j.contains("curves"))
+      for (const auto& c : j.at("curves")) {
+        EvalCurve curve;
+        curve.key = c.at("key").get<std::string>();
+        curve.label = c.at("label").get<std::string>();
+        curve.fps = c.at("fps").get<double>();
+        for (const auto& v : c.at("mean")) curve.mean.push_back(number_from(v));
+        for (const auto& v : c.at("spread")) curve.spread.push_back(number_from(v));
+        if (curve.spread.size() != curve.mean.size())
+          throw Error("evaluation JSON: curve '" + curve.key + "' has " + std::to_string(curve.mean.size()) +
+                      " means but " + std::to_string(curve.spread.size()) + " spreads");
+        curve.reference_mean = number_from(c.at("reference_mean"));
+        curve.reference_spread = number_from(c.at("reference_spread"));
+        r.curves.push_back(std::move(curve));
+      }
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

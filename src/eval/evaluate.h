@@ -51,6 +51,19 @@ struct EvalOptions {
   // per window of long_horizon_window_s seconds: rows "long_horizon.*". 0 = off.
   double long_horizon_s = 0;
   double long_horizon_window_s = 10.0;
+  // Generation from held-out prefixes (Dynamic Future Net, Chen et al. 2020, sections 6.2-6.4),
+  // for families that continue a prefix and make their own root motion: N samples of
+  // prefix_generation_s seconds after the first prefix_generation_frames real frames of
+  // prefix_generation_clips held-out clips (evenly spread over the chosen ones), scored over
+  // windows of long_horizon_window_s against the real clips of the prefix's content: rows
+  // "prefix_generation.*" and the curves "prefix_generation.mean_pose_distance.c<k>" (Fig. 9).
+  // With a classifier, each sample's content is also recognised in windows of transition_window_s
+  // seconds and the changes counted. 0 = off.
+  double prefix_generation_s = 0;
+  int prefix_generation_frames = 20;
+  int prefix_generation_clips = 4;
+  double transition_window_s = 2.0;
+  int reference_clips = 200;     // training clips (evenly spread) behind Fig. 9's training band
   // When not empty, only these protocols run (of those the options enable and the run's traits
   // allow; names as Protocol::name(), eval/protocol.h), e.g. {"prediction", "body_validity"} for
   // the prediction tables alone. An unknown name is an error.
@@ -65,6 +78,18 @@ struct EvalProgress {
   int total = 0;
 };
 using EvalProgressCallback = std::function<void(const EvalProgress&)>;
+
+// A statistic over time (e.g. DFN's Fig. 9): per frame the mean and spread over samples, and the
+// reference's (real or training data) level as a constant band.
+struct EvalCurve {
+  std::string key;            // stable identifier, e.g. "prefix_generation.mean_pose_distance.c0"
+  std::string label;          // human-readable with unit
+  double fps = 0;             // frames per second of the series
+  std::vector<double> mean;   // [T]
+  std::vector<double> spread; // [T] population standard deviation around mean
+  double reference_mean = 0;  // NaN = none
+  double reference_spread = 0;
+};
 
 // One row of the table. NaN = does not apply (e.g. ADE of the real data).
 struct EvalRow {
@@ -85,6 +110,7 @@ struct EvalResult {
   int prediction_windows = 0;          // 0 when prediction did not run
   int joint_error_clips = 0;           // clips long enough for the joint errors (0: not run)
   std::vector<EvalRow> rows;
+  std::vector<EvalCurve> curves;       // statistics over time, written under "curves"
   // Names of the protocols that ran (eval/protocol.h), in order. Not written by to_json (the file
   // format stays as it was); empty after from_json.
   std::vector<std::string> protocols;
@@ -93,7 +119,8 @@ struct EvalResult {
   const EvalRow& row(const std::string& key) const;
   // {"run", "family", "split", "n", "seed", "clips", "prediction_windows",
   //  "joint_error_clips", "rows": [{"key", "label", "model", "real"}], "metrics": {key: {"model",
-//  "real"}}}, NaN as null.
+  //  "real"}}, "curves": [{"key", "label", "fps", "mean", "spread", "reference_mean",
+  //  "reference_spread"}]}, NaN as null ("curves" only when there is one).
   nlohmann::json to_json() const;
   // Reads what to_json wrote (for `mosyn report`). Throws mosyn::Error when malformed.
   static EvalResult from_json(const nlohmann::json& j);
@@ -128,6 +155,8 @@ struct EvalResult {
 // - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
 //   clips split into two halves by index parity);
+// - with prefix_generation_s > 0 (families that continue a prefix and generate their root motion):
+//   see src/eval/protocols/prefix_generation.cpp for the rows "prefix_generation.*" and curves;
 // - with long_horizon_s > 0, for each window w<k>: "long_horizon.bone_length_rmse_cm.w<k>" (cm),
 //   "long_horizon.foot_skating_ratio.w<k>", "long_horizon.body_speed_mps.w<k>" (mean speed of the
 //   joints relative to the pelvis, m/s), each the mean over the N samples, real: the real clips

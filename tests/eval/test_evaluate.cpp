@@ -312,6 +312,69 @@ TEST_F(EvaluateTest, LongHorizonRowsArePerWindowAndFinite) {
   EXPECT_THROW(result_->row("long_horizon.frozen_fraction"), Error);
 }
 
+// Generation from held-out prefixes (DFN, Chen et al. 2020): stability rows against the real clips,
+// Fig. 9's curves (zero spread over the shared prefix, some after it, the training data's level
+// beside them), transitions by the classifier, and the curves through the JSON file.
+TEST_F(EvaluateTest, PrefixGenerationRowsAndFig9Curves) {
+  eval::EvalOptions e;
+  e.num_samples = 3;
+  e.max_clips = 4;
+  e.prediction = false;
+  e.joint_errors = false;
+  e.threads = 1;
+  e.prefix_generation_s = 4.0;
+  e.prefix_generation_frames = 20;
+  e.prefix_generation_clips = 2;
+  e.long_horizon_window_s = 2.0;
+  e.transition_window_s = 1.0;
+  e.classifier_dir = (*root_ / "classifier").string();
+  e.only_protocols = {"prefix_generation"};
+  const auto r = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  EXPECT_EQ(r.protocols, (std::vector<std::string>{"prefix_generation"}));
+  for (const char* key : {"prefix_generation.body_speed_mps.last", "prefix_generation.root_speed_mps.last",
+                          "prefix_generation.root_height_m", "prefix_generation.content_changes_per_min",
+                          "prefix_generation.contents_per_sample"}) {
+    SCOPED_TRACE(key);
+    EXPECT_TRUE(std::isfinite(r.row(key).model));
+    EXPECT_TRUE(std::isfinite(r.row(key).real));
+  }
+  for (const char* key : {"prefix_generation.body_speed_within_2x", "prefix_generation.root_speed_within_2x",
+                          "prefix_generation.root_height_in_range", "prefix_generation.frozen_fraction",
+                          "prefix_generation.exploded_fraction"}) {
+    SCOPED_TRACE(key);
+    EXPECT_GE(r.row(key).model, 0.0);
+    EXPECT_LE(r.row(key).model, 1.0);
+  }
+  EXPECT_GE(r.row("prefix_generation.contents_per_sample").model, 1.0);
+  // 20 + 120 frames in windows of 60: three windows, the training level as the real column.
+  EXPECT_NO_THROW(r.row("prefix_generation.mean_pose_distance_m.w2"));
+  EXPECT_THROW(r.row("prefix_generation.mean_pose_distance_m.w3"), Error);
+  ASSERT_EQ(r.curves.size(), 2u);
+  for (const auto& c : r.curves) {
+    SCOPED_TRACE(c.key);
+    ASSERT_EQ(c.mean.size(), 140u);
+    ASSERT_EQ(c.spread.size(), 140u);
+    EXPECT_DOUBLE_EQ(c.fps, 30.0);
+    for (int t = 0; t < 20; ++t) EXPECT_NEAR(c.mean[t], 0.0, 1e-6);  // every sample shares the observed frames
+    EXPECT_GT(*std::max_element(c.mean.begin() + 20, c.mean.end()), 1e-3);
+    EXPECT_GT(c.reference_mean, 0.0);
+    EXPECT_GE(c.reference_spread, 0.0);
+    EXPECT_DOUBLE_EQ(r.row("prefix_generation.mean_pose_distance_m.w0").real, c.reference_mean);
+  }
+  const eval::EvalResult back = eval::EvalResult::from_json(nlohmann::json::parse(r.to_json().dump()));
+  ASSERT_EQ(back.curves.size(), r.curves.size());
+  EXPECT_EQ(back.curves[1].key, r.curves[1].key);
+  EXPECT_EQ(back.curves[1].label, r.curves[1].label);
+  for (size_t t = 0; t < r.curves[1].mean.size(); ++t) {
+    EXPECT_NEAR(back.curves[1].mean[t], r.curves[1].mean[t], 1e-12);
+    EXPECT_NEAR(back.curves[1].spread[t], r.curves[1].spread[t], 1e-12);
+  }
+  EXPECT_DOUBLE_EQ(back.curves[0].reference_mean, r.curves[0].reference_mean);
+  // Off by default, and the JSON of an evaluation without curves has none.
+  EXPECT_TRUE(result_->curves.empty());
+  EXPECT_FALSE(result_->to_json().contains("curves"));
+}
+
 // Three runs on two datasets: one column per run, one real column per dataset, n/a where a
 // protocol does not apply (the run without prefix has no prediction).
 TEST_F(EvaluateTest, CompareRunsSideBySide) {

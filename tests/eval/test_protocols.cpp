@@ -26,6 +26,7 @@ eval::EvalOptions everything_on() {
   o.synthetic_paths = true;
   o.classifier_dir = "some/classifier";
   o.long_horizon_s = 30;
+  o.prefix_generation_s = 30;
   return o;
 }
 
@@ -35,7 +36,7 @@ TEST(Protocols, NamesAndOrder) {
   Names names;
   for (const auto& p : eval::all_protocols()) names.push_back(p->name());
   EXPECT_EQ(names, (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "body_validity",
-                          "recognition", "long_horizon"}));
+                          "recognition", "long_horizon", "prefix_generation"}));
 }
 
 TEST(Protocols, DefaultOptionsForAFamilyThatTakesControlAndContinuesAPrefix) {
@@ -44,7 +45,7 @@ TEST(Protocols, DefaultOptionsForAFamilyThatTakesControlAndContinuesAPrefix) {
             (Names{"locomotion", "diversity", "joint_errors", "prediction", "body_validity"}));
   EXPECT_EQ(eval::protocols_for(t, everything_on()),
             (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "body_validity", "recognition",
-                   "long_horizon"}));
+                   "long_horizon", "prefix_generation"}));
   eval::EvalOptions o;
   o.prediction = false;
   o.joint_errors = false;
@@ -59,9 +60,11 @@ TEST(Protocols, GeneratedRootMotionSkipsWhatNeedsAGivenControl) {
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, false), everything_on()),
             (Names{"locomotion", "diversity", "recognition", "long_horizon"}));
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kGenerates, true), everything_on()),
-            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon"}));
+            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon",
+                   "prefix_generation"}));
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kIgnores, true), everything_on()),
-            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon"}));
+            (Names{"locomotion", "diversity", "prediction", "body_validity", "recognition", "long_horizon",
+                   "prefix_generation"}));
 }
 
 TEST(Protocols, NoPrefixNoPredictionNorJointErrors) {
@@ -78,7 +81,8 @@ TEST(Protocols, ApplicabilityOfEachProtocol) {
     EXPECT_TRUE(takes);  // a family that takes control and continues motion has every protocol
     if (p->name() == "paths" || p->name() == "joint_errors") EXPECT_FALSE(generates);
     else EXPECT_TRUE(generates);
-    if (p->name() == "prediction" || p->name() == "body_validity" || p->name() == "joint_errors")
+    if (p->name() == "prediction" || p->name() == "body_validity" || p->name() == "joint_errors" ||
+        p->name() == "prefix_generation")
       EXPECT_FALSE(no_prefix);
     else EXPECT_TRUE(no_prefix);
   }

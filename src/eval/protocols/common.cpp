@@ -1,9 +1,21 @@
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
+#include "core/error.h"
+#include "data/control.h"
+#include "data/prepare.h"
 #include "eval/protocols/protocols.h"
 
 namespace mosyn::eval::detail {
+
+namespace {
+
+constexpr double kSpeedMps = 1.3;         // walking speed along the meander
+constexpr double kAmplitudeM = 2.0;       // lateral amplitude of the meander
+constexpr double kWavelengthM = 16.0;     // its wavelength
+}  // namespace
+
 
 double mean_finite(const std::vector<double>& values) {
   double sum = 0;
@@ -31,6 +43,75 @@ Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence) {
   Eigen::MatrixXd out = sequence;
   for (Eigen::Index j = 0; j + 2 < out.cols(); j += 3) out.middleCols(j, 3) -= sequence.leftCols(3);
   return out;
+}
+
+MotionPositions slice(const MotionPositions& m, int from, int to) {
+  MotionPositions out = m;
+  out.num_frames = to - from;
+  out.positions_m.assign(m.positions_m.begin() + static_cast<size_t>(from) * m.num_joints,
+                         m.positions_m.begin() + static_cast<size_t>(to) * m.num_joints);
+  return out;
+}
+
+double body_speed_mps(const MotionPositions& m) {
+  if (m.num_frames < 2 || m.num_joints < 2) return kNaN;
+  double sum = 0;
+  for (int t = 1; t < m.num_frames; ++t)
+    for (int j = 1; j < m.num_joints; ++j)
+      sum += ((m.position(t, j) - m.position(t, 0)) - (m.position(t - 1, j) - m.position(t - 1, 0))).norm();
+  return sum * m.fps / ((m.num_frames - 1.0) * (m.num_joints - 1.0));
+}
+
+double largest_extent_m(const MotionPositions& m) {
+  double extent = 0;
+  for (int t = 0; t < m.num_frames; ++t)
+    for (int j = 0; j < m.num_joints; ++j) {
+      const Eigen::Vector3d d = m.position(t, j) - m.position(t, 0);
+      if (!d.allFinite() || !m.position(t, 0).allFinite()) return std::numeric_limits<double>::infinity();
+      extent = std::max(extent, d.norm());
+    }
+  return extent;
+}
+
+std::vector<float> long_horizon_control(const nn::LoadedRun& run, double seconds) {
+  const int c = run.context.control_dim;
+  const int frames = static_cast<int>(std::lround(seconds * run.dataset.fps));
+  if (run.traits.control != nn::InputUse::kTakes) return std::vector<float>(static_cast<size_t>(frames) * c, 0.0f);
+  std::vector<data::Waypoint> path;
+  const double length = kSpeedMps * seconds + 10.0;
+  for (double z = 0; z <= length; z += 1.0)
+    path.push_back({kAmplitudeM * std::sin(2 * M_PI * z / kWavelengthM), z, 0.0});
+  data::PathOptions po;
+  po.speed_mps = kSpeedMps;
+  po.fps = run.dataset.fps;
+  po.seconds = seconds;
+  std::vector<float> control =
+      data::smooth_control(data::control_from_path(path, po), po.fps, run.dataset.layout.root_smoothing_s);
+  control.resize(static_cast<size_t>(frames) * c, 0.0f);  // exactly `seconds` long
+  return control;
+}
+
+nn::LoadedRun load_classifier(const EvalOptions& o) {
+  nn::LoadOptions lo;
+  lo.threads = o.threads;
+  if (std::filesystem::exists(std::filesystem::path(o.classifier_dir) / "best.pt")) lo.checkpoint = "best.pt";
+  nn::LoadedRun cls = nn::load_run(o.classifier_dir, lo);
+  if (cls.kind != nn::FamilyKind::kClassifier || !cls.trainable)
+    throw Error(o.classifier_dir + ": not a classifier run (family '" + cls.family + "')");
+  return cls;
+}
+
+void classifier_inputs(const nn::LoadedRun& cls, const data::DatasetInfo& info, const std::vector<float>& pose,
+                       const std::vector<float>& control, int control_dim, const std::string& name,
+                       std::vector<float>* classifier_pose, std::vector<float>* classifier_control) {
+  if (data::layout_to_json(cls.dataset.layout) == data::layout_to_json(info.layout)) {
+    *classifier_pose = pose;
+    *classifier_control = control;
+    return;
+  }
+  const int frames = static_cast<int>(control.size()) / control_dim;
+  data::encode_clip_for_dataset(cls.dataset, data::decode_features(info, pose.data(), control.data(), frames), name,
+                                classifier_pose, classifier_control);
 }
 
 nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames) {

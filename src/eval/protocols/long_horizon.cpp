@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "core/error.h"
-#include "data/control.h"
 #include "eval/protocols/protocols.h"
 
 namespace mosyn::eval {
@@ -16,68 +15,14 @@ namespace mosyn::eval {
 namespace {
 
 using detail::kNaN;
+using detail::body_speed_mps;
+using detail::largest_extent_m;
 using detail::mean_finite;
+using detail::slice;
 
-constexpr double kSpeedMps = 1.3;         // walking speed along the meander
-constexpr double kAmplitudeM = 2.0;       // lateral amplitude of the meander
-constexpr double kWavelengthM = 16.0;     // its wavelength
 constexpr double kFrozenFraction = 0.2;   // frozen: body speed under this share of the real clips'
 constexpr double kExplodedExtent = 2.0;   // exploded: a joint this many times farther from the pelvis
                                           // than the farthest in the real clips
-
-// Control [T, C] of a meandering walk (S-curves of kAmplitudeM every kWavelengthM / 2 metres) at
-// the run's rate, cut to `seconds`, shaped by its root smoothing; zeros for families that do not
-// take control (only T is read).
-std::vector<float> long_horizon_control(const nn::LoadedRun& run, double seconds) {
-  const int c = run.context.control_dim;
-  const int frames = static_cast<int>(std::lround(seconds * run.dataset.fps));
-  if (run.traits.control != nn::InputUse::kTakes) return std::vector<float>(static_cast<size_t>(frames) * c, 0.0f);
-  std::vector<data::Waypoint> path;
-  const double length = kSpeedMps * seconds + 10.0;
-  for (double z = 0; z <= length; z += 1.0)
-    path.push_back({kAmplitudeM * std::sin(2 * M_PI * z / kWavelengthM), z, 0.0});
-  data::PathOptions po;
-  po.speed_mps = kSpeedMps;
-  po.fps = run.dataset.fps;
-  po.seconds = seconds;
-  std::vector<float> control =
-      data::smooth_control(data::control_from_path(path, po), po.fps, run.dataset.layout.root_smoothing_s);
-  control.resize(static_cast<size_t>(frames) * c, 0.0f);  // exactly `seconds` long
-  return control;
-}
-
-// Frames [from, to) of a motion.
-MotionPositions slice(const MotionPositions& m, int from, int to) {
-  MotionPositions out = m;
-  out.num_frames = to - from;
-  out.positions_m.assign(m.positions_m.begin() + static_cast<size_t>(from) * m.num_joints,
-                         m.positions_m.begin() + static_cast<size_t>(to) * m.num_joints);
-  return out;
-}
-
-// Mean speed (m/s) of the non-root joints relative to the pelvis (joint 0): the body's own motion,
-// whatever the root does. NaN for fewer than 2 frames or joints.
-double body_speed_mps(const MotionPositions& m) {
-  if (m.num_frames < 2 || m.num_joints < 2) return kNaN;
-  double sum = 0;
-  for (int t = 1; t < m.num_frames; ++t)
-    for (int j = 1; j < m.num_joints; ++j)
-      sum += ((m.position(t, j) - m.position(t, 0)) - (m.position(t - 1, j) - m.position(t - 1, 0))).norm();
-  return sum * m.fps / ((m.num_frames - 1.0) * (m.num_joints - 1.0));
-}
-
-// The largest distance of a joint from the pelvis over the motion (m); infinity when a coordinate
-// is not finite.
-double largest_extent_m(const MotionPositions& m) {
-  double extent = 0;
-  for (int t = 0; t < m.num_frames; ++t)
-    for (int j = 0; j < m.num_joints; ++j) {
-      const Eigen::Vector3d d = m.position(t, j) - m.position(t, 0);
-      if (!d.allFinite() || !m.position(t, 0).allFinite()) return std::numeric_limits<double>::infinity();
-      extent = std::max(extent, d.norm());
-    }
-  return extent;
-}
 
 // The three per-window metrics of one motion (or of a whole real clip).
 struct WindowValues {
@@ -105,7 +50,7 @@ void LongHorizonProtocol::run(EvalContext& ctx, EvalResult& result) const {
   const nn::LoadedRun& run = ctx.run();
   if (!(o.long_horizon_window_s > 0)) throw Error("evaluate: long_horizon_window_s must be > 0");
   const int window = std::max(2, static_cast<int>(std::lround(o.long_horizon_window_s * run.dataset.fps)));
-  const std::vector<float> control = long_horizon_control(run, o.long_horizon_s);
+  const std::vector<float> control = detail::long_horizon_control(run, o.long_horizon_s);
   const int frames = static_cast<int>(control.size()) / run.context.control_dim;
   if (frames < 2) throw Error("evaluate: the long horizon must last at least 2 frames");
   const int num_windows = std::max(1, frames / window);

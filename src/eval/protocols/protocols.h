@@ -36,6 +36,11 @@ std::unique_ptr<Protocol> make_body_validity_protocol();
 std::unique_ptr<Protocol> make_recognition_protocol();
 // Long-horizon stability over time windows. Every motion model; on with long_horizon_s > 0.
 std::unique_ptr<Protocol> make_long_horizon_protocol();
+// Long generation from held-out prefixes: stability against real clips of the prefix's content,
+// DFN's Fig. 9 (distance to the per-frame mean pose over time, beside the training data's) and,
+// with a classifier, content transitions. Families that continue a prefix (those that take control
+// follow the long-horizon meander after it); on with prefix_generation_s > 0.
+std::unique_ptr<Protocol> make_prefix_generation_protocol();
 
 namespace detail {
 
@@ -52,6 +57,32 @@ Eigen::MatrixXd to_matrix(const std::vector<float>& v, int rows, int cols);
 
 // Joint positions relative to joint 0 (the pelvis) per frame: sequence [T, J * 3].
 Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence);
+
+// Control [T, C] of a meandering walk at 1.3 m/s (S-curves of 2 m every 8 m) at the run's rate,
+// cut to `seconds`, shaped by its root smoothing; zeros for families that do not take control
+// (only T is read).
+std::vector<float> long_horizon_control(const nn::LoadedRun& run, double seconds);
+
+// Frames [from, to) of a motion.
+MotionPositions slice(const MotionPositions& m, int from, int to);
+
+// Mean speed (m/s) of the non-root joints relative to the pelvis (joint 0): the body's own motion,
+// whatever the root does. NaN for fewer than 2 frames or joints.
+double body_speed_mps(const MotionPositions& m);
+
+// The largest distance of a joint from the pelvis over the motion (m); infinity when a coordinate
+// is not finite.
+double largest_extent_m(const MotionPositions& m);
+
+// A classifier run (family "classifier") from options.classifier_dir, best.pt when present.
+nn::LoadedRun load_classifier(const EvalOptions& options);
+
+// Raw features of a motion of the evaluated dataset (info) as the classifier's inputs: unchanged
+// when the classifier was trained on the same feature layout, otherwise decoded to a clip and
+// encoded as its data (so one classifier scores every family). name is for messages.
+void classifier_inputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info, const std::vector<float>& pose,
+                       const std::vector<float>& control, int control_dim, const std::string& name,
+                       std::vector<float>* classifier_pose, std::vector<float>* classifier_control);
 
 // Extras with the run's "walk" content label (when it takes labels and knows "walk") and the
 // given warm-up: what the drawn-path protocols sample with.

@@ -1,11 +1,9 @@
 // Recognisability of the samples by a trained classifier run (Ghorbani et al. 2020, section 5.2):
 // content / style accuracy, Inception score, FID.
 #include <algorithm>
-#include <filesystem>
 
 #include "core/error.h"
 #include "nn/sample_job.h"
-#include "data/prepare.h"
 #include "eval/protocols/protocols.h"
 #include "nn/classifier/classify.h"
 
@@ -23,16 +21,6 @@ struct Inputs {
   std::vector<int> content, style;  // classifier label ids, -1 = none
 };
 
-nn::LoadedRun load_classifier(const EvalOptions& o) {
-  nn::LoadOptions lo;
-  lo.threads = o.threads;
-  if (std::filesystem::exists(std::filesystem::path(o.classifier_dir) / "best.pt")) lo.checkpoint = "best.pt";
-  nn::LoadedRun cls = nn::load_run(o.classifier_dir, lo);
-  if (cls.kind != nn::FamilyKind::kClassifier || !cls.trainable)
-    throw Error(o.classifier_dir + ": not a classifier run (family '" + cls.family + "')");
-  return cls;
-}
-
 // The samples (model) and the real clips (real) as the classifier's data. Another feature form
 // (e.g. a joint-position model scored by a joint-rotation classifier): every motion is decoded to
 // a clip and encoded as the classifier's data, so one classifier scores every family. Same form:
@@ -40,18 +28,10 @@ nn::LoadedRun load_classifier(const EvalOptions& o) {
 void gather(EvalContext& ctx, const nn::LoadedRun& cls, Inputs* model, Inputs* real) {
   const data::DatasetInfo& info = ctx.info();
   const int c = ctx.run().context.control_dim;
-  const bool same_features = data::layout_to_json(cls.dataset.layout) == data::layout_to_json(info.layout);
   auto add = [&](Inputs* to, const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
                  int ci, int si) {
     std::vector<float> p, k;
-    if (same_features) {
-      p = pose;
-      k = control;
-    } else {
-      const int frames = static_cast<int>(control.size()) / c;
-      data::encode_clip_for_dataset(cls.dataset, data::decode_features(info, pose.data(), control.data(), frames), name,
-                                    &p, &k);
-    }
+    detail::classifier_inputs(cls, info, pose, control, c, name, &p, &k);
     to->poses.push_back(std::move(p));
     to->controls.push_back(std::move(k));
     to->content.push_back(ci);
@@ -100,7 +80,7 @@ class RecognitionProtocol : public Protocol {
   bool applies_to(const nn::ModelTraits&) const override { return true; }
   void run(EvalContext& ctx, EvalResult& result) const override {
     ctx.report("classifier", 0, 1);
-    const nn::LoadedRun cls = load_classifier(ctx.options());
+    const nn::LoadedRun cls = detail::load_classifier(ctx.options());
     Inputs model, real;
     gather(ctx, cls, &model, &real);
     const nn::ClassifierOutputs mo = nn::classify_windows(cls, model.poses, model.controls);
