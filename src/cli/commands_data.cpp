@@ -96,6 +96,9 @@ void add_data_commands(CLI::App& app, Action* action) {
   prep->add_flag("--drop-fingers", a->drop_fingers, "drop finger and thumb joints");
   prep->add_option("--tpose", a->tpose, "drop a converter T-pose in frame 0: auto, on or off")->capture_default_str();
   prep->add_option("--units-m", o.meters_per_unit, "metres per file unit (default: guessed from body size)");
+  prep->add_option("--max-train-seconds", o.max_train_seconds,
+                   "keep at most this much original training motion (files in order, the last cut; DFN's "
+                   "limited-data runs)");
   prep->add_option("--threads", o.threads, "parsing threads (default: all cores)");
   prep->add_flag("--overwrite", o.overwrite, "replace an existing dataset in --out");
   prep->callback([action, a] { *action = [a] { run_prepare(*a); }; });

@@ -223,6 +223,7 @@ json info_to_json(const DatasetInfo& info) {
   j["drop_joint_patterns"] = info.drop_joint_patterns;
   j["keep_joint_patterns"] = info.keep_joint_patterns;
   j["source_joint_names"] = info.source_joint_names;
+  if (info.max_train_seconds > 0) j["max_train_seconds"] = info.max_train_seconds;
   return j;
 }
 
@@ -268,6 +269,10 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
   info.tpose = j.value("tpose", std::string("auto"));
   info.drop_joint_patterns = j.value("drop_joint_patterns", std::vector<std::string>{});
   info.keep_joint_patterns = j.value("keep_joint_patterns", std::vector<std::string>{});
+  if (j.contains("max_train_seconds")) {
+    info.max_train_seconds = get_key<double>(j, "max_train_seconds", file);
+    if (!(info.max_train_seconds >= 0)) throw ParseError(file, 0, "max_train_seconds must not be negative");
+  }
   info.source_joint_names = j.value("source_joint_names", std::vector<std::string>{});
   return info;
 }

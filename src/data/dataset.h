@@ -93,6 +93,9 @@ struct DatasetInfo {
   std::string tpose = "auto";             // T-pose removal mode used (data/augment.h)
   std::vector<std::string> drop_joint_patterns, keep_joint_patterns;
   std::vector<std::string> source_joint_names;  // joints of the BVH files before any reduction
+  // When > 0, the training split was cut to this many seconds of original motion (DFN's
+  // limited-data runs; PrepareOptions::max_train_seconds). Written only when > 0.
+  double max_train_seconds = 0;
 };
 
 // One training window: clip index within a split and first frame.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -125,6 +126,7 @@ void check_options(const PrepareOptions& o) {
   if (o.window_frames <= 0) throw Error("prepare: window_frames must be positive");
   if (o.window_hop <= 0) throw Error("prepare: window_hop must be positive");
   if (!(o.val_fraction >= 0 && o.val_fraction < 1)) throw Error("prepare: val_fraction must be in [0, 1)");
+  if (!(o.max_train_seconds >= 0)) throw Error("prepare: max_train_seconds must not be negative");
   if (o.threads < 1) throw Error("prepare: threads must be at least 1");
   if (!(o.meters_per_unit >= 0) || !std::isfinite(o.meters_per_unit))
     throw Error("prepare: meters_per_unit must be 0 (guess) or positive");
@@ -205,6 +207,33 @@ std::vector<Item> list_inputs(const PrepareOptions& o, DatasetInfo* info) {
     }
   if (items.empty()) throw Error("prepare: no BVH file left in " + join(o.input_dirs, ", ") + " after filtering");
   return items;
+}
+
+// Frames to keep of each file: all of a validation file; of training files, in order, what fits
+// max_train_seconds (0 = no limit), a file cut to its first frames when the budget ends inside it
+// and 0 (left out) after. A cut shorter than 2 frames leaves the file out.
+std::vector<int> training_budget(const std::vector<Clip>& clips, const std::vector<bool>& is_val,
+                                 double max_train_seconds) {
+  std::vector<int> keep(clips.size());
+  long budget = max_train_seconds > 0 ? std::lround(max_train_seconds * clips[0].motion.fps)
+                                      : std::numeric_limits<long>::max();
+  for (size_t i = 0; i < clips.size(); ++i) {
+    keep[i] = clips[i].motion.num_frames;
+    if (is_val[i]) continue;
+    keep[i] = static_cast<int>(std::min<long>(keep[i], budget));
+    if (keep[i] < 2) keep[i] = 0;
+    budget -= keep[i];
+  }
+  return keep;
+}
+
+// The first `frames` frames of a motion.
+Motion first_frames(const Motion& m, int frames) {
+  Motion out = m;
+  out.num_frames = frames;
+  out.rotations.resize(static_cast<size_t>(frames) * m.num_joints);
+  out.translations.resize(static_cast<size_t>(frames) * m.num_joints);
+  return out;
 }
 
 }  // namespace
@@ -298,7 +327,13 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   num_val = std::min(num_val, n - 1);
   std::vector<bool> is_val(static_cast<size_t>(n), false);
   for (int k = 0; k < num_val; ++k) is_val[order[k]] = true;
-  for (int i = 0; i < n; ++i) (is_val[i] ? info.val_files : info.train_files).push_back(items[i].source);
+  const std::vector<int> keep_frames = training_budget(clips, is_val, o.max_train_seconds);
+  info.max_train_seconds = o.max_train_seconds;
+  for (int i = 0; i < n; ++i)
+    if (keep_frames[i] > 0) (is_val[i] ? info.val_files : info.train_files).push_back(items[i].source);
+  if (info.train_files.empty())
+    throw Error("prepare: max_train_seconds " + std::to_string(o.max_train_seconds) +
+                " keeps no training clip of at least 2 frames");
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
@@ -310,7 +345,9 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {
-    const Clip clip = std::move(clips[i]);
+    if (keep_frames[i] == 0) return;
+    Clip clip = std::move(clips[i]);
+    if (keep_frames[i] < clip.motion.num_frames) clip.motion = first_frames(clip.motion, keep_frames[i]);
     auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
       ClipRecord r;
       r.source = items[i].source;

@@ -54,6 +54,11 @@ struct PrepareOptions {
   TposeMode tpose = TposeMode::kAuto;
   double meters_per_unit = 0;           // 0 = guess (core/units.h); e.g. 0.01 for centimetres
   bool overwrite = false;               // replace an existing dataset in output_dir
+  // When > 0, keep at most this many seconds of original motion in the training split (Dynamic
+  // Future Net's limited-data runs): training files in their sorted order until the budget is
+  // spent, the last one cut at its end (with its augmented copies), later ones left out of the
+  // dataset. Validation files are not cut.
+  double max_train_seconds = 0;
 };
 
 struct PrepareProgress {

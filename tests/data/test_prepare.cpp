@@ -159,6 +159,36 @@ TEST(Prepare, SplitIsDeterministicAndSeeded) {
   fs::remove_all(out);
 }
 
+// DFN's limited-data runs: the training split cut to a budget of seconds, file by file in order
+// (mirrored copies cut with their original), validation untouched, the budget recorded.
+TEST(Prepare, MaxTrainSecondsCutsTheTrainingSplit) {
+  const fs::path out = temp_path("budget");
+  fs::remove_all(out);
+  PrepareOptions o = basic_options(out.string());
+  o.overwrite = true;
+  const DatasetInfo full = prepare_dataset(o);
+  ASSERT_EQ(full.train_files.size(), 12u);  // 16 files of 90 frames, a quarter held out
+  o.mirror = true;
+  o.max_train_seconds = 5.0;  // 150 frames at 30 fps: one file whole, the next cut to 60
+  const DatasetInfo cut = prepare_dataset(o);
+  EXPECT_EQ(cut.val_files, full.val_files);
+  ASSERT_EQ(cut.train_files.size(), 2u);
+  EXPECT_EQ(cut.train_files[0], full.train_files[0]);
+  EXPECT_EQ(cut.train_files[1], full.train_files[1]);
+  const Dataset ds = Dataset::open(out.string());
+  EXPECT_DOUBLE_EQ(ds.info().max_train_seconds, 5.0);
+  std::vector<int> frames;
+  for (const auto& r : ds.clips("train")) frames.push_back(r.num_frames);
+  EXPECT_EQ(frames, (std::vector<int>{90, 90, 60, 60}));  // each original beside its mirror
+  EXPECT_EQ(ds.clips("train")[2].pose.size(), 60u * ds.info().layout.pose_dim);
+  for (const auto& r : ds.clips("val")) EXPECT_EQ(r.num_frames, 90);
+  o.max_train_seconds = 0.01;  // not even 2 frames
+  EXPECT_THROW(prepare_dataset(o), Error);
+  o.max_train_seconds = -1;
+  EXPECT_THROW(prepare_dataset(o), Error);
+  fs::remove_all(out);
+}
+
 TEST(Prepare, PositionsFormFiltersJointsAndResample) {
   const fs::path out = temp_path("pos");
   fs::remove_all(out);
