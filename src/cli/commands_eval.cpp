@@ -81,6 +81,10 @@ void run_eval(EvalArgs a) {
       !(o.transition_window_s > 0))
     throw UsageError("--prefix-generation must not be negative; --prefix-frames and --prefix-clips must be >= 1; "
                      "--transition-window must be positive");
+  if (o.label_samples < 0 || o.label_samples > 100000 || !(o.label_seconds >= 0) || o.label_seconds > 3600)
+    throw UsageError("--label-samples must be in [0, 100000] and --label-seconds in [0, 3600]");
+  if (o.label_samples > 0 && a.classifier.empty())
+    throw UsageError("--label-samples needs --classifier (an evaluation classifier run)");
   if (!a.plot.empty() && !(o.prefix_generation_s > 0))
     throw UsageError("--plot draws the curves of --prefix-generation: give it too");
   o.classifier_dir = a.classifier;
@@ -203,7 +207,7 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
   cmd->add_option("--protocols", a->protocols,
                   "run only these comma-separated protocols, e.g. prediction,body_validity (default: all that apply: "
-                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, long_horizon, prefix_generation)");
+                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, label_generation, long_horizon, prefix_generation)");
   cmd->add_option("--error-frames", a->options.error_frames,
                   "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
       ->delimiter(',')
@@ -223,6 +227,11 @@ void add_eval_command(CLI::App& app, Action* action) {
                   "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");
   cmd->add_option("--long-horizon-window", a->options.long_horizon_window_s,
                   "long horizon: window length, s (default 10)");
+  cmd->add_option("--label-samples", a->options.label_samples,
+                  "with --classifier, families conditioned on labels: K samples of every content x style "
+                  "combination, scored like the paper's Table 2 (rows label_generation.*; default off)");
+  cmd->add_option("--label-seconds", a->options.label_seconds,
+                  "label generation: seconds per sample (default: the dataset's window)");
   cmd->add_option("--prefix-generation", a->options.prefix_generation_s,
                   "families that continue a prefix and make their own root motion: N samples of SECONDS after "
                   "the first --prefix-frames of --prefix-clips held-out clips; stability, Fig. 9, transitions "

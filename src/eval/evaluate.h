@@ -59,6 +59,11 @@ struct EvalOptions {
   // "prefix_generation.*" and the curves "prefix_generation.mean_pose_distance.c<k>" (Fig. 9).
   // With a classifier, each sample's content is also recognised in windows of transition_window_s
   // seconds and the changes counted. 0 = off.
+  // Generation by label alone (Ghorbani et al. 2020, Table 2), for families conditioned on labels
+  // and with classifier_dir: label_samples samples of label_seconds (0 = the dataset's window) for
+  // every content x style combination of the run, no prefix: rows "label_generation.*". 0 = off.
+  int label_samples = 0;
+  double label_seconds = 0;
   double prefix_generation_s = 0;
   int prefix_generation_frames = 20;
   int prefix_generation_clips = 4;
@@ -155,6 +160,8 @@ struct EvalResult {
 // - with a classifier: "classifier.content_acc" (and "style_acc") in percent, "classifier.is"
 //   (content Inception score), "classifier.fid" (model: samples vs real clips; real: the real
 //   clips split into two halves by index parity);
+// - with label_samples > 0 and a classifier (families conditioned on labels): the rows
+//   "label_generation.*" of src/eval/protocols/label_generation.cpp;
 // - with prefix_generation_s > 0 (families that continue a prefix and generate their root motion):
 //   see src/eval/protocols/prefix_generation.cpp for the rows "prefix_generation.*" and curves;
 // - with long_horizon_s > 0, for each window w<k>: "long_horizon.bone_length_rmse_cm.w<k>" (cm),

@@ -148,6 +148,7 @@ const std::vector<std::unique_ptr<Protocol>>& all_protocols() {
     v.push_back(make_prediction_protocol());
     v.push_back(make_body_validity_protocol());
     v.push_back(make_recognition_protocol());
+    v.push_back(make_label_generation_protocol());
     v.push_back(make_long_horizon_protocol());
     v.push_back(make_prefix_generation_protocol());
     return v;

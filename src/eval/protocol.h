@@ -110,7 +110,7 @@ class Protocol {
 
 // Every protocol, in the order of their rows: locomotion (set metrics, foot-locked), paths,
 // diversity (per-control APD, mean-pose distance, FSE), joint_errors, prediction, body_validity,
-// recognition, long_horizon, prefix_generation.
+// recognition, label_generation, long_horizon, prefix_generation.
 const std::vector<std::unique_ptr<Protocol>>& all_protocols();
 
 // Names of the protocols of all_protocols() that are enabled by options, apply to traits and are

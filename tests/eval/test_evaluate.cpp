@@ -375,6 +375,45 @@ TEST_F(EvaluateTest, PrefixGenerationRowsAndFig9Curves) {
   EXPECT_FALSE(result_->to_json().contains("curves"));
 }
 
+// Generation by label alone (Ghorbani et al. 2020, Table 2): every content x style combination
+// sampled K times, IS of both heads, FID overall and per label with the real split-half floor.
+TEST_F(EvaluateTest, LabelGenerationScoresEveryCombination) {
+  // The tiny MoGlow is not conditioned on labels: it stands in for one that is (labels are passed
+  // and ignored), which is all the protocol's bookkeeping needs.
+  nn::LoadedRun run = nn::load_run((*root_ / "run").string());
+  run.traits.labels = true;
+  eval::EvalOptions e;
+  e.num_samples = 1;
+  e.max_clips = 2;
+  e.threads = 1;
+  e.label_samples = 3;
+  e.label_seconds = 1.0;
+  e.classifier_dir = (*root_ / "classifier").string();
+  e.only_protocols = {"label_generation"};
+  const auto r = eval::evaluate(run, *dataset_, e);
+  EXPECT_EQ(r.protocols, (std::vector<std::string>{"label_generation"}));
+  EXPECT_EQ(r.row("label_generation.samples").model, 4 * 2 * 3);  // contents x styles x K
+  EXPECT_EQ(r.row("label_generation.samples").real, static_cast<double>(dataset_->clips("val").size() -
+            std::count_if(dataset_->clips("val").begin(), dataset_->clips("val").end(),
+                          [](const data::ClipRecord& c) { return c.mirrored || c.reversed; })));
+  for (const char* key : {"label_generation.is_content", "label_generation.is_style", "label_generation.fid",
+                          "label_generation.content_acc", "label_generation.style_acc"}) {
+    SCOPED_TRACE(key);
+    EXPECT_TRUE(std::isfinite(r.row(key).model));
+  }
+  // Inception scores lie in [1, number of classes].
+  EXPECT_GE(r.row("label_generation.is_content").model, 1.0 - 1e-9);
+  EXPECT_LE(r.row("label_generation.is_content").model, 4.0 + 1e-9);
+  EXPECT_LE(r.row("label_generation.is_style").model, 2.0 + 1e-9);
+  EXPECT_GE(r.row("label_generation.fid").model, 0.0);
+  EXPECT_NO_THROW(r.row("label_generation.fid.content.walk"));
+  EXPECT_NO_THROW(r.row("label_generation.fid.style.brisk"));
+  // A run without labels has no such protocol; without a classifier it is off.
+  run.traits.labels = false;
+  EXPECT_TRUE(eval::evaluate(run, *dataset_, e).protocols.empty());
+  EXPECT_THROW(result_->row("label_generation.fid"), Error);
+}
+
 // Three runs on two datasets: one column per run, one real column per dataset, n/a where a
 // protocol does not apply (the run without prefix has no prediction).
 TEST_F(EvaluateTest, CompareRunsSideBySide) {

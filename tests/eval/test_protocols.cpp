@@ -27,6 +27,7 @@ eval::EvalOptions everything_on() {
   o.classifier_dir = "some/classifier";
   o.long_horizon_s = 30;
   o.prefix_generation_s = 30;
+  o.label_samples = 2;
   return o;
 }
 
@@ -36,7 +37,7 @@ TEST(Protocols, NamesAndOrder) {
   Names names;
   for (const auto& p : eval::all_protocols()) names.push_back(p->name());
   EXPECT_EQ(names, (Names{"locomotion", "paths", "diversity", "joint_errors", "prediction", "body_validity",
-                          "recognition", "long_horizon", "prefix_generation"}));
+                          "recognition", "label_generation", "long_horizon", "prefix_generation"}));
 }
 
 TEST(Protocols, DefaultOptionsForAFamilyThatTakesControlAndContinuesAPrefix) {
@@ -69,15 +70,18 @@ TEST(Protocols, GeneratedRootMotionSkipsWhatNeedsAGivenControl) {
 
 TEST(Protocols, NoPrefixNoPredictionNorJointErrors) {
   EXPECT_EQ(eval::protocols_for(traits(nn::InputUse::kTakes, false, true), everything_on()),
-            (Names{"locomotion", "paths", "diversity", "recognition", "long_horizon"}));
+            (Names{"locomotion", "paths", "diversity", "recognition", "label_generation", "long_horizon"}));
 }
 
 TEST(Protocols, ApplicabilityOfEachProtocol) {
   for (const auto& p : eval::all_protocols()) {
     SCOPED_TRACE(p->name());
-    const bool takes = p->applies_to(traits(nn::InputUse::kTakes, true));
-    const bool generates = p->applies_to(traits(nn::InputUse::kGenerates, true));
-    const bool no_prefix = p->applies_to(traits(nn::InputUse::kTakes, false));
+    const bool takes = p->applies_to(traits(nn::InputUse::kTakes, true, true));
+    const bool generates = p->applies_to(traits(nn::InputUse::kGenerates, true, true));
+    const bool no_prefix = p->applies_to(traits(nn::InputUse::kTakes, false, true));
+    const bool no_labels = p->applies_to(traits(nn::InputUse::kTakes, true, false));
+    if (p->name() == "label_generation") EXPECT_FALSE(no_labels);
+    else EXPECT_TRUE(no_labels);
     EXPECT_TRUE(takes);  // a family that takes control and continues motion has every protocol
     if (p->name() == "paths" || p->name() == "joint_errors") EXPECT_FALSE(generates);
     else EXPECT_TRUE(generates);

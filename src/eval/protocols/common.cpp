@@ -114,6 +114,18 @@ void classifier_inputs(const nn::LoadedRun& cls, const data::DatasetInfo& info, 
                                 classifier_pose, classifier_control);
 }
 
+double split_half_fid(const Eigen::MatrixXd& fr) {
+  if (fr.rows() < 4) return kNaN;
+  Eigen::MatrixXd even((fr.rows() + 1) / 2, fr.cols()), odd(fr.rows() / 2, fr.cols());
+  for (Eigen::Index r = 0; r < fr.rows(); ++r) {
+    if (r % 2 == 0)
+      even.row(r / 2) = fr.row(r);
+    else
+      odd.row(r / 2) = fr.row(r);
+  }
+  return frechet_inception_distance(even, odd);
+}
+
 nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames) {
   nn::SampleExtras extras;
   extras.warmup_frames = warmup_frames;

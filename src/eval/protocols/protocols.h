@@ -34,6 +34,11 @@ std::unique_ptr<Protocol> make_body_validity_protocol();
 // Content / style accuracy, IS and FID by a classifier run. Every motion model; on with
 // classifier_dir.
 std::unique_ptr<Protocol> make_recognition_protocol();
+// Generation by label alone (Ghorbani et al. 2020, Table 2): samples of every content x style
+// combination scored by an evaluation classifier (IS of content and style, FID overall and per
+// label, recognition of the request). Families conditioned on labels; on with label_samples > 0
+// and classifier_dir.
+std::unique_ptr<Protocol> make_label_generation_protocol();
 // Long-horizon stability over time windows. Every motion model; on with long_horizon_s > 0.
 std::unique_ptr<Protocol> make_long_horizon_protocol();
 // Long generation from held-out prefixes: stability against real clips of the prefix's content,
@@ -73,6 +78,10 @@ double body_speed_mps(const MotionPositions& m);
 // The largest distance of a joint from the pelvis over the motion (m); infinity when a coordinate
 // is not finite.
 double largest_extent_m(const MotionPositions& m);
+
+// FID between the even- and odd-indexed rows of features [N, F] (the floor of a set against
+// itself); NaN under 4 rows.
+double split_half_fid(const Eigen::MatrixXd& features);
 
 // A classifier run (family "classifier") from options.classifier_dir, best.pt when present.
 nn::LoadedRun load_classifier(const EvalOptions& options);

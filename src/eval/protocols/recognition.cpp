@@ -60,19 +60,6 @@ double accuracy(const std::vector<float>& probs, int k, const std::vector<int>& 
   return total > 0 ? 100.0 * right / total : kNaN;
 }
 
-// FID between the even- and odd-indexed rows of features [N, F]; NaN under 4 rows.
-double split_half_fid(const Eigen::MatrixXd& fr) {
-  if (fr.rows() < 4) return kNaN;
-  Eigen::MatrixXd even((fr.rows() + 1) / 2, fr.cols()), odd(fr.rows() / 2, fr.cols());
-  for (Eigen::Index r = 0; r < fr.rows(); ++r) {
-    if (r % 2 == 0)
-      even.row(r / 2) = fr.row(r);
-    else
-      odd.row(r / 2) = fr.row(r);
-  }
-  return frechet_inception_distance(even, odd);
-}
-
 class RecognitionProtocol : public Protocol {
  public:
   std::string name() const override { return "recognition"; }
@@ -98,7 +85,7 @@ class RecognitionProtocol : public Protocol {
     const Eigen::MatrixXd fm = to_matrix(mo.features, mo.num_windows, mo.num_features);
     const Eigen::MatrixXd fr = to_matrix(ro.features, ro.num_windows, ro.num_features);
     const double fid_model = fm.rows() >= 2 && fr.rows() >= 2 ? frechet_inception_distance(fm, fr) : kNaN;
-    result.rows.push_back({"classifier.fid", "FID (classifier features, vs real data)", fid_model, split_half_fid(fr)});
+    result.rows.push_back({"classifier.fid", "FID (classifier features, vs real data)", fid_model, detail::split_half_fid(fr)});
     ctx.report("classifier", 1, 1);
   }
 };
