@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
+#include "io/json_number.h"
 
 namespace mosyn::data {
 namespace fs = std::filesystem;
@@ -88,7 +89,7 @@ template <typename T>
 T get_key(const json& j, const char* key, const std::string& file) {
   if (!j.is_object() || !j.contains(key)) throw ParseError(file, 0, std::string("missing key \"") + key + "\"");
   try {
-    return j.at(key).get<T>();
+    return io::json_get<T>(j.at(key));
   } catch (const json::exception& e) {
     throw ParseError(file, 0, std::string("key \"") + key + "\" has the wrong type: " + e.what());
   }

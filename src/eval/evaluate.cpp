@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 
+#include "io/json_number.h"
 #include "core/error.h"
 #include "eval/protocol.h"
 
@@ -66,11 +67,11 @@ EvalResult EvalResult::from_json(const nlohmann::json& j) {
     r.run_dir = j.value("run", "");
     r.family = j.value("family", "");
     r.split = j.value("split", "");
-    r.num_samples = j.value("n", 0);
-    r.seed = j.value("seed", std::uint64_t{0});
+    r.num_samples = io::json_value(j, "n", 0);
+    r.seed = io::json_value(j, "seed", std::uint64_t{0});
     if (j.contains("clips")) r.clips = j.at("clips").get<std::vector<std::string>>();
-    r.prediction_windows = j.value("prediction_windows", 0);
-    r.joint_error_clips = j.value("joint_error_clips", 0);
+    r.prediction_windows = io::json_value(j, "prediction_windows", 0);
+    r.joint_error_clips = io::json_value(j, "joint_error_clips", 0);
     for (const auto& row : j.at("rows"))
       r.rows.push_back({row.at("key").get<std::string>(), row.at("label").get<std::string>(), number_from(row.at("model")),
                         number_from(row.at("real"))});

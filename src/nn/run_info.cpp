@@ -1,5 +1,6 @@
 #include "nn/run_info.h"
 
+#include "io/json_number.h"
 #include "core/error.h"
 
 namespace mosyn::nn {
@@ -12,10 +13,10 @@ nlohmann::json context_to_json(const ModelContext& c) {
 ModelContext context_from_json(const nlohmann::json& j, const std::string& what) {
   try {
     ModelContext c;
-    c.pose_dim = j.at("pose_dim").get<int>();
-    c.control_dim = j.at("control_dim").get<int>();
-    c.num_content = j.at("num_content").get<int>();
-    c.num_style = j.at("num_style").get<int>();
+    c.pose_dim = io::json_get<int>(j.at("pose_dim"));
+    c.control_dim = io::json_get<int>(j.at("control_dim"));
+    c.num_content = io::json_get<int>(j.at("num_content"));
+    c.num_style = io::json_get<int>(j.at("num_style"));
     c.fps = j.at("fps").get<double>();
     c.pose_form = data::parse_pose_form(j.at("pose_form").get<std::string>());
     return c;

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "io/atomic_file.h"
+#include "io/json_number.h"
 
 namespace mosyn::io {
 namespace {
@@ -57,6 +58,30 @@ TEST(JsonFile, NumberOverflowGivesFileAndLine) {
       EXPECT_NE(std::string(e.what()).find(number), std::string::npos) << e.what();
     }
   }
+}
+
+// Found by fuzz_json_config: a float far outside int's range where an integer is expected (a
+// skeleton's parents) was cast, which is undefined behaviour. json_get checks before converting.
+TEST(JsonNumber, IntegersAreCheckedBeforeConversion) {
+  using nlohmann::json;
+  EXPECT_EQ(json_get<int>(json(3.0)), 3);
+  EXPECT_EQ(json_get<int>(json(-7)), -7);
+  EXPECT_EQ(json_get<int>(json(2147483647)), 2147483647);
+  EXPECT_EQ(json_get<int>(json(-2147483648.0)), -2147483647 - 1);
+  EXPECT_THROW(json_get<int>(json(2147483648.0)), json::out_of_range);
+  EXPECT_THROW(json_get<int>(json(-1.2222e63)), json::out_of_range);
+  EXPECT_THROW(json_get<int>(json(2.5)), json::out_of_range);
+  EXPECT_THROW(json_get<int>(json(std::int64_t{1} << 40)), json::out_of_range);
+  EXPECT_THROW(json_get<std::uint64_t>(json(-1)), json::out_of_range);
+  EXPECT_THROW(json_get<std::uint64_t>(json(1.9e19)), json::out_of_range);
+  EXPECT_EQ(json_get<std::uint64_t>(json(18446744073709551615ull)), 18446744073709551615ull);
+  EXPECT_THROW(json_get<int>(json("3")), json::type_error);
+  EXPECT_EQ(json_get<std::vector<int>>(json::parse("[-1, 0, 1.0]")), (std::vector<int>{-1, 0, 1}));
+  EXPECT_THROW(json_get<std::vector<int>>(json::parse("[-1, -1.2222e63]")), json::out_of_range);
+  EXPECT_DOUBLE_EQ(json_get<double>(json(1e300)), 1e300);  // non-integers pass unchanged
+  EXPECT_EQ(json_value(json::parse("{\"n\": 4}"), "n", 0), 4);
+  EXPECT_EQ(json_value(json::parse("{}"), "n", 9), 9);
+  EXPECT_THROW(json_value(json::parse("{\"n\": 1e30}"), "n", 0), json::out_of_range);
 }
 
 }  // namespace

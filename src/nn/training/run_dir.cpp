@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "io/json_number.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
@@ -62,7 +63,7 @@ void truncate_log(const std::string& path, int step) {
   while (std::getline(in, line)) {
     if (line.empty()) continue;
     try {
-      if (nlohmann::json::parse(line).at("step").get<int>() <= step) text += line + "\n";
+      if (io::json_get<int>(nlohmann::json::parse(line).at("step")) <= step) text += line + "\n";
     } catch (const std::exception&) {
       // A damaged log line is dropped; the log is informational.
     }

@@ -2,6 +2,7 @@
 #include <cstdint>
 #include <string>
 
+#include "io/json_number.h"
 #include "core/error.h"
 #include "nn/training/train.h"
 
@@ -38,21 +39,21 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "data_dir") o.data_dir = v.get<std::string>();
       else if (k == "out_dir") o.out_dir = v.get<std::string>();
       else if (k == "model_config") o.model_config = v;
-      else if (k == "steps") o.steps = v.get<int>();
-      else if (k == "batch") o.batch = v.get<int>();
-      else if (k == "window") o.window = v.get<int>();
+      else if (k == "steps") o.steps = io::json_get<int>(v);
+      else if (k == "batch") o.batch = io::json_get<int>(v);
+      else if (k == "window") o.window = io::json_get<int>(v);
       else if (k == "lr") o.lr = v.get<double>();
-      else if (k == "warmup") o.warmup = v.get<int>();
+      else if (k == "warmup") o.warmup = io::json_get<int>(v);
       else if (k == "grad_clip") o.grad_clip = v.get<double>();
-      else if (k == "seed") o.seed = v.get<std::uint64_t>();
-      else if (k == "threads") o.threads = v.get<int>();
+      else if (k == "seed") o.seed = io::json_get<std::uint64_t>(v);
+      else if (k == "threads") o.threads = io::json_get<int>(v);
       else if (k == "device") o.device = v.get<std::string>();
       else if (k == "resume") o.resume = v.get<bool>();
       else if (k == "overwrite") o.overwrite = v.get<bool>();
-      else if (k == "checkpoint_every") o.checkpoint_every = v.get<int>();
-      else if (k == "validate_every") o.validate_every = v.get<int>();
-      else if (k == "val_windows") o.val_windows = v.get<int>();
-      else if (k == "log_every") o.log_every = v.get<int>();
+      else if (k == "checkpoint_every") o.checkpoint_every = io::json_get<int>(v);
+      else if (k == "validate_every") o.validate_every = io::json_get<int>(v);
+      else if (k == "val_windows") o.val_windows = io::json_get<int>(v);
+      else if (k == "log_every") o.log_every = io::json_get<int>(v);
       else if (k == "init_from") o.init_from = v.get<std::string>();
       else throw Error("unknown training option '" + k + "'");
     }

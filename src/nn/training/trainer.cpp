@@ -19,6 +19,7 @@
 #include <random>
 #include <sstream>
 
+#include "io/json_number.h"
 #include "core/error.h"
 #include "io/json_file.h"
 #include "nn/checkpoint.h"
@@ -318,7 +319,7 @@ void Trainer::resume_from_checkpoint() {
   // Drop what was logged after the checkpoint (and a line torn by a crash).
   training::truncate_log(paths_.log, step_);
   nlohmann::json config = io::read_json(paths_.config);
-  const int before = config.value("world_size", 1);
+  const int before = io::json_value(config, "world_size", 1);
   if (before != world_) {
     config["world_size"] = world_;
     io::write_json(paths_.config, config);
