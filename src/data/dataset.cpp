@@ -95,6 +95,12 @@ T get_key(const json& j, const char* key, const std::string& file) {
   }
 }
 
+// get_key when the key is present, else the fallback.
+template <typename T>
+T optional_key(const json& j, const char* key, T fallback, const std::string& file) {
+  return j.is_object() && j.contains(key) ? get_key<T>(j, key, file) : fallback;
+}
+
 json vec3(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 Eigen::Vector3d vec3_from(const json& j, const std::string& file, const char* what) {
@@ -261,20 +267,21 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
   info.train_files = get_key<std::vector<std::string>>(j, "train_files", file);
   info.val_files = get_key<std::vector<std::string>>(j, "val_files", file);
   info.source_dir = get_key<std::string>(j, "source_dir", file);
-  info.source_dirs = j.value("source_dirs", std::vector<std::string>{info.source_dir});
-  info.source_layout = j.value("source_layout", std::string());
+  // Keys added after version 1: optional, with the old behaviour as their default.
+  info.source_dirs = optional_key(j, "source_dirs", std::vector<std::string>{info.source_dir}, file);
+  info.source_layout = optional_key(j, "source_layout", std::string(), file);
   if (j.contains("augmentation")) {
-    info.augment_mirror = j["augmentation"].value("mirror", false);
-    info.augment_reverse = j["augmentation"].value("reverse", false);
+    const json& a = j.at("augmentation");
+    if (!a.is_object()) throw ParseError(file, 0, "key \"augmentation\" must be an object");
+    info.augment_mirror = optional_key(a, "mirror", false, file);
+    info.augment_reverse = optional_key(a, "reverse", false, file);
   }
-  info.tpose = j.value("tpose", std::string("auto"));
-  info.drop_joint_patterns = j.value("drop_joint_patterns", std::vector<std::string>{});
-  info.keep_joint_patterns = j.value("keep_joint_patterns", std::vector<std::string>{});
-  if (j.contains("max_train_seconds")) {
-    info.max_train_seconds = get_key<double>(j, "max_train_seconds", file);
-    if (!(info.max_train_seconds >= 0)) throw ParseError(file, 0, "max_train_seconds must not be negative");
-  }
-  info.source_joint_names = j.value("source_joint_names", std::vector<std::string>{});
+  info.tpose = optional_key(j, "tpose", std::string("auto"), file);
+  info.drop_joint_patterns = optional_key(j, "drop_joint_patterns", std::vector<std::string>{}, file);
+  info.keep_joint_patterns = optional_key(j, "keep_joint_patterns", std::vector<std::string>{}, file);
+  info.max_train_seconds = optional_key(j, "max_train_seconds", 0.0, file);
+  if (!(info.max_train_seconds >= 0)) throw ParseError(file, 0, "max_train_seconds must not be negative");
+  info.source_joint_names = optional_key(j, "source_joint_names", std::vector<std::string>{}, file);
   return info;
 }
 

@@ -64,6 +64,35 @@ TEST(Dataset, LayoutRecordsTheControlAndOldDatasetsStillLoad) {
   EXPECT_THROW(info_from_json(j, "d.json"), ParseError);
 }
 
+// Found by fuzz_json_config: an optional key of the wrong type ("source_dirs": [1]) escaped as a
+// bare nlohmann exception naming no file. Every optional key is now read like the required ones.
+TEST(Dataset, OptionalKeysOfTheWrongTypeNameTheFile) {
+  DatasetInfo info = make_info();
+  info.layout = make_layout(info.skeleton, PoseForm::kRotations, 0, Eigen::Vector3d(0, 0, 1), 0.35);
+  const nlohmann::json good = info_to_json(info);
+  for (const auto& [key, value] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"source_dirs", nlohmann::json::array({1})}, {"source_layout", 3}, {"tpose", false},
+           {"drop_joint_patterns", "x"}, {"keep_joint_patterns", nlohmann::json::array({nullptr})},
+           {"source_joint_names", 1.5}, {"augmentation", 7}, {"max_train_seconds", "many"},
+           {"max_train_seconds", -2}}) {
+    SCOPED_TRACE(key);
+    nlohmann::json j = good;
+    j[key] = value;
+    try {
+      info_from_json(j, "dataset.json");
+      ADD_FAILURE() << "accepted " << value.dump();
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.file(), "dataset.json");
+    }
+  }
+  nlohmann::json j = good;
+  j["augmentation"]["mirror"] = "yes";
+  EXPECT_THROW(info_from_json(j, "dataset.json"), ParseError);
+  j = good;
+  j.erase("source_dirs");  // absent: the old default
+  EXPECT_EQ(info_from_json(j, "dataset.json").source_dirs, std::vector<std::string>{"/src"});
+}
+
 TEST(Dataset, CacheRoundTripAndCorruption) {
   const int dim = 63;
   std::vector<ClipRecord> clips = {make_record("data/a.bvh", 5, dim, 1.0f), make_record("data/ü.bvh", 0, dim, 2.0f)};
