@@ -69,6 +69,7 @@ class Reader {
   void get_floats(std::vector<float>* out, uint64_t count, const char* what) {
     if (count > (end_ - pos_) / sizeof(float)) need(end_ - pos_ + 1, what);
     out->resize(static_cast<size_t>(count));
+    if (count == 0) return;  // an empty vector's data() may be null, which memcpy must not get
     std::memcpy(out->data(), bytes_.data() + pos_, static_cast<size_t>(count) * sizeof(float));
     pos_ += static_cast<size_t>(count) * sizeof(float);
   }

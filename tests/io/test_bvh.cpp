@@ -232,7 +232,7 @@ TEST(Bvh, JointWithoutChannelsIsAllowed) {
 TEST(Bvh, RejectsEmptyAndGarbageFiles) {
   expect_parse_error("", 1, "empty");
   expect_parse_error(" \n\t\r\n", 3, "empty");
-  expect_parse_error(std::string("\x00\x01\xff\xfe garbage", 14), 1, "expected HIERARCHY");
+  expect_parse_error(std::string("\x00\x01\xff\xfe garbage", 12), 1, "expected HIERARCHY");  // 4 bytes + 8
   expect_parse_error("ROOT Hips\n{\n}", 1, "expected HIERARCHY");
   expect_parse_error("HIERARCHY\nJOINT Hips\n", 2, "expected ROOT");
   expect_parse_error("HIERARCHY\nROOT\n{\n", 2, "joint name");
