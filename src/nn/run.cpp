@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "io/zip_check.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
 #include "nn/checkpoint.h"
@@ -101,6 +102,7 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
 // Loads checkpoint bytes into *archive and checks its format and family (mosyn::Error otherwise).
 void open_checkpoint(const std::string& bytes, const torch::Device& device, const std::string& family,
                      torch::serialize::InputArchive* archive) {
+  io::check_zip_integrity(bytes, "checkpoint archive");  // LibTorch trusts the archive: damaged bytes can crash it
   archive->load_from(bytes.data(), bytes.size(), device);
   c10::IValue v;
   if (!archive->try_read("format", v) || !v.isString() || v.toStringRef() != kCheckpointFormat)

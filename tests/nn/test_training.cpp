@@ -186,6 +186,48 @@ TEST(Training, TruncatedCheckpointGivesClearError) {
   fs::remove_all(dir);
 }
 
+// Found by fuzz_run: LibTorch's importer crashed on a checkpoint whose TorchScript source had
+// shuffled bytes, which it reads without checking the archive's CRC-32. Every entry's CRC is now
+// checked first: a changed byte in any entry (here a tensor's, which LibTorch would have loaded
+// silently) is a clear error naming the file and the entry.
+TEST(Training, DamagedCheckpointEntryIsRefusedBeforeLibTorchReadsIt) {
+  const auto ds = synthetic_dataset();
+  const auto dir = temp_dir("damaged");
+  auto o = tiny_options(dir);
+  o.steps = 2;
+  train(o, ds);
+  const auto ckpt = dir / "checkpoint.pt";
+  std::string bytes;
+  {
+    std::ifstream in(ckpt, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  // One byte of the first tensor's data (entries holding tensor data are stored uncompressed, so
+  // the bytes after its local header are the tensor's): LibTorch would load the changed weights.
+  const std::string entry = "archive/data/0";
+  const size_t header = bytes.find(entry) - 30;
+  ASSERT_EQ(bytes.compare(header, 4, "PK\x03\x04"), 0) << "no local header for " << entry;
+  auto u16 = [&](size_t at) { return static_cast<size_t>(static_cast<unsigned char>(bytes[at])) |
+                                     static_cast<size_t>(static_cast<unsigned char>(bytes[at + 1])) << 8; };
+  const size_t data = header + 30 + u16(header + 26) + u16(header + 28);
+  ASSERT_LT(data, bytes.size());
+  bytes[data] = static_cast<char>(bytes[data] ^ 0x5a);
+  {
+    std::ofstream out(ckpt, std::ios::binary | std::ios::trunc);
+    out << bytes;
+  }
+  try {
+    load_run(dir.string(), {"checkpoint.pt", "cpu", 1});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("checkpoint.pt"), std::string::npos) << m;
+    EXPECT_NE(m.find("damaged file"), std::string::npos) << m;
+    EXPECT_NE(m.find(entry), std::string::npos) << m;
+  }
+  fs::remove_all(dir);
+}
+
 TEST(Sampling, SampleMotionsDeterministicPerSeedAndGeneratorMatches) {
   const auto ds = synthetic_dataset();
   const auto dir = temp_dir("sample");
