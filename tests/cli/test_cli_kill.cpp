@@ -5,6 +5,8 @@
 // weights equal those of an uninterrupted run (schedule, data order and dropout are deterministic
 // given the seed).
 #include <gtest/gtest.h>
+
+#include <cstdio>
 #include <signal.h>
 #include <sys/wait.h>
 #include <torch/torch.h>
@@ -79,10 +81,12 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
 
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> delay_ms(150, 1200);
-  int last_step = -1, kills = 0;
+  int last_step = -1, kills = 0, attempts = 0, resumes = 0;
   for (int attempt = 0; attempt < 40 && kills < 20; ++attempt) {
+    ++attempts;
     const bool resume = fs::exists(fs::path(killed) / "checkpoint.pt");
     if (!resume) fs::remove_all(killed);  // killed before its first checkpoint: start again
+    resumes += resume;
     const pid_t pid = spawn_mosyn(with_config(train_args(root + "/dataset", killed, resume)));
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms(rng)));
     const bool was_running = kill(pid, SIGKILL) == 0;
@@ -97,6 +101,8 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
     if (code == 0) break;  // finished before the kill
   }
   EXPECT_GE(kills, 10) << "too few kills landed while the run was going";
+  std::printf("SIGKILL landed %d times in %d starts (%d of them resumes); last checkpoint before finishing: step %d\n",
+              kills, attempts, resumes, last_step);
   // Finish, then compare with the uninterrupted run.
   const bool resume = fs::exists(fs::path(killed) / "checkpoint.pt");
   ASSERT_EQ(wait_exit(spawn_mosyn(with_config(train_args(root + "/dataset", killed, resume)))), 0);
