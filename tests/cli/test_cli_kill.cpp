@@ -62,6 +62,18 @@ std::vector<std::string> train_args(const std::string& data, const std::string& 
   return a;
 }
 
+// Waits (at most 120 s) until `checkpoint` exists with a write time after `since`, or the process
+// has ended (a zombie still answers kill(pid, 0), so this checks the file only).
+void wait_for_checkpoint(const fs::path& checkpoint, fs::file_time_type since, pid_t pid) {
+  for (int i = 0; i < 1200; ++i) {
+    std::error_code ec;
+    const auto t = fs::last_write_time(checkpoint, ec);
+    if (!ec && t > since) return;
+    if (kill(pid, 0) != 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
 // Step of the run's checkpoint (loads every file the run needs), or -1 when the run has none yet.
 int checkpoint_step(const std::string& run) {
   if (!fs::exists(fs::path(run) / "checkpoint.pt")) return -1;
@@ -80,14 +92,20 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
   ASSERT_EQ(wait_exit(spawn_mosyn(with_config(train_args(root + "/dataset", whole, false)))), 0);
 
   std::mt19937 rng(11);
-  std::uniform_int_distribution<int> delay_ms(150, 1200);
+  // Each start is killed a random moment after it has written a checkpoint of its own (so kills
+  // land mid-training and mid-write, whatever the machine's load; a fixed delay on a loaded
+  // machine killed every start before its first checkpoint).
+  std::uniform_int_distribution<int> delay_ms(0, 300);
   int last_step = -1, kills = 0, attempts = 0, resumes = 0;
   for (int attempt = 0; attempt < 40 && kills < 20; ++attempt) {
     ++attempts;
     const bool resume = fs::exists(fs::path(killed) / "checkpoint.pt");
     if (!resume) fs::remove_all(killed);  // killed before its first checkpoint: start again
     resumes += resume;
+    const fs::path checkpoint = fs::path(killed) / "checkpoint.pt";
+    const auto since = resume ? fs::last_write_time(checkpoint) : fs::file_time_type::min();
     const pid_t pid = spawn_mosyn(with_config(train_args(root + "/dataset", killed, resume)));
+    wait_for_checkpoint(checkpoint, since, pid);
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms(rng)));
     const bool was_running = kill(pid, SIGKILL) == 0;
     const int code = wait_exit(pid);
@@ -101,6 +119,7 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
     if (code == 0) break;  // finished before the kill
   }
   EXPECT_GE(kills, 10) << "too few kills landed while the run was going";
+  EXPECT_GE(resumes, 10) << "too few kills landed after a checkpoint";
   std::printf("SIGKILL landed %d times in %d starts (%d of them resumes); last checkpoint before finishing: step %d\n",
               kills, attempts, resumes, last_step);
   // Finish, then compare with the uninterrupted run.
