@@ -39,6 +39,8 @@ std::pair<double, double> pose_change(const Motion& m, int a, int b) {
   return {m.num_joints > 1 ? sum / (m.num_joints - 1) : 0.0, worst};
 }
 
+}  // namespace
+
 Motion slice_frames(const Motion& m, int first, int count) {
   Motion out = m;
   out.num_frames = count;
@@ -47,8 +49,6 @@ Motion slice_frames(const Motion& m, int first, int count) {
   out.translations.assign(m.translations.begin() + begin, m.translations.begin() + begin + n);
   return out;
 }
-
-}  // namespace
 
 // ---- Static root ----
 

@@ -62,6 +62,9 @@ std::vector<int> select_joints(const Skeleton& skeleton, const std::vector<std::
 Clip subset_by_patterns(const Clip& clip, const std::vector<std::string>& drop_patterns,
                         const std::vector<std::string>& keep_patterns);
 
+// Frames [first, first + count) of a motion (the caller keeps them inside it).
+Motion slice_frames(const Motion& motion, int first, int count);
+
 // ---- Frame rate ---------------------------------------------------------------------------
 
 // The motion resampled at fps_out (e.g. CMU 120 -> 30): frame k lies at time k / fps_out, for

@@ -227,15 +227,6 @@ std::vector<int> training_budget(const std::vector<Clip>& clips, const std::vect
   return keep;
 }
 
-// The first `frames` frames of a motion.
-Motion first_frames(const Motion& m, int frames) {
-  Motion out = m;
-  out.num_frames = frames;
-  out.rotations.resize(static_cast<size_t>(frames) * m.num_joints);
-  out.translations.resize(static_cast<size_t>(frames) * m.num_joints);
-  return out;
-}
-
 }  // namespace
 
 DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallback& progress) {
@@ -347,7 +338,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   parallel_for(n, o.threads, [&](int i) {
     if (keep_frames[i] == 0) return;
     Clip clip = std::move(clips[i]);
-    if (keep_frames[i] < clip.motion.num_frames) clip.motion = first_frames(clip.motion, keep_frames[i]);
+    if (keep_frames[i] < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames[i]);
     auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
       ClipRecord r;
       r.source = items[i].source;
