@@ -11,11 +11,12 @@ namespace mosyn::eval::detail {
 
 namespace {
 
-constexpr double kSpeedMps = 1.3;         // walking speed along the meander
-constexpr double kAmplitudeM = 2.0;       // lateral amplitude of the meander
-constexpr double kWavelengthM = 16.0;     // its wavelength
-}  // namespace
+// The long-horizon meander (long_horizon_control).
+constexpr double kSpeedMps = 1.3;      // walking speed along it
+constexpr double kAmplitudeM = 2.0;    // lateral amplitude
+constexpr double kWavelengthM = 16.0;  // wavelength
 
+}  // namespace
 
 double mean_finite(const std::vector<double>& values) {
   double sum = 0;
@@ -101,17 +102,47 @@ nn::LoadedRun load_classifier(const EvalOptions& o) {
   return cls;
 }
 
-void classifier_inputs(const nn::LoadedRun& cls, const data::DatasetInfo& info, const std::vector<float>& pose,
-                       const std::vector<float>& control, int control_dim, const std::string& name,
-                       std::vector<float>* classifier_pose, std::vector<float>* classifier_control) {
-  if (data::layout_to_json(cls.dataset.layout) == data::layout_to_json(info.layout)) {
-    *classifier_pose = pose;
-    *classifier_control = control;
-    return;
+ClassifierInputs::ClassifierInputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info)
+    : classifier_(classifier),
+      info_(info),
+      same_features_(data::layout_to_json(classifier.dataset.layout) == data::layout_to_json(info.layout)) {}
+
+void ClassifierInputs::add(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
+                           int content_id, int style_id) {
+  std::vector<float> p, c;
+  if (same_features_) {
+    p = pose;
+    c = control;
+  } else {
+    const int frames = static_cast<int>(control.size()) / info_.layout.control_dim;
+    data::encode_clip_for_dataset(classifier_.dataset, data::decode_features(info_, pose.data(), control.data(), frames),
+                                  name, &p, &c);
   }
-  const int frames = static_cast<int>(control.size()) / control_dim;
-  data::encode_clip_for_dataset(cls.dataset, data::decode_features(info, pose.data(), control.data(), frames), name,
-                                classifier_pose, classifier_control);
+  poses.push_back(std::move(p));
+  controls.push_back(std::move(c));
+  content.push_back(content_id);
+  style.push_back(style_id);
+}
+
+nn::ClassifierOutputs ClassifierInputs::classify() const { return nn::classify_windows(classifier_, poses, controls); }
+
+int arg_max(const std::vector<float>& probabilities, int k, int row) {
+  const float* p = probabilities.data() + static_cast<size_t>(row) * k;
+  return static_cast<int>(std::max_element(p, p + k) - p);
+}
+
+double recognised_percent(const std::vector<float>& probabilities, int k, const std::vector<int>& labels) {
+  int right = 0, total = 0;
+  for (size_t i = 0; i < labels.size(); ++i) {
+    if (labels[i] < 0) continue;
+    right += arg_max(probabilities, k, static_cast<int>(i)) == labels[i];
+    ++total;
+  }
+  return total > 0 ? 100.0 * right / total : kNaN;
+}
+
+double fid_or_nan(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return a.rows() >= 2 && b.rows() >= 2 ? frechet_inception_distance(a, b) : kNaN;
 }
 
 double split_half_fid(const Eigen::MatrixXd& fr) {

@@ -17,12 +17,10 @@ namespace {
 using detail::kNaN;
 using detail::body_speed_mps;
 using detail::largest_extent_m;
+using detail::kExplodedExtent;
+using detail::kFrozenFraction;
 using detail::mean_finite;
 using detail::slice;
-
-constexpr double kFrozenFraction = 0.2;   // frozen: body speed under this share of the real clips'
-constexpr double kExplodedExtent = 2.0;   // exploded: a joint this many times farther from the pelvis
-                                          // than the farthest in the real clips
 
 // The three per-window metrics of one motion (or of a whole real clip).
 struct WindowValues {

@@ -21,7 +21,6 @@
 
 #include "core/error.h"
 #include "eval/protocols/protocols.h"
-#include "nn/classifier/classify.h"
 
 namespace mosyn::eval {
 
@@ -32,9 +31,8 @@ using detail::kNaN;
 using detail::mean_finite;
 using detail::slice;
 
-constexpr double kFrozenFraction = 0.2;  // frozen: a window's body speed under this share of real
-constexpr double kExplodedExtent = 2.0;  // exploded: a joint this many times farther from the pelvis
-                                         // than the farthest in the real clips of the content
+using detail::kExplodedExtent;
+using detail::kFrozenFraction;
 
 // Mean horizontal speed (m/s) of the pelvis (joint 0) over frames [from, to).
 double root_speed_mps(const MotionPositions& m, int from, int to) {
@@ -113,21 +111,14 @@ std::vector<int> recognised_contents(const EvalContext& ctx, const nn::LoadedRun
                                      const std::vector<float>& control, int window, const std::string& name) {
   const int d = ctx.run().context.pose_dim, c = ctx.run().context.control_dim;
   const int frames = static_cast<int>(pose.size()) / d;
-  std::vector<std::vector<float>> poses, controls;
+  detail::ClassifierInputs windows(cls, ctx.info());
   for (int from = 0; from == 0 || from + window <= frames; from += window) {  // full windows, at least one
     const int to = std::min(frames, from + window);
-    std::vector<float> p, k;
-    detail::classifier_inputs(cls, ctx.info(), detail::rows_of(pose, from, to, d), detail::rows_of(control, from, to, c),
-                              c, name, &p, &k);
-    poses.push_back(std::move(p));
-    controls.push_back(std::move(k));
+    windows.add(detail::rows_of(pose, from, to, d), detail::rows_of(control, from, to, c), name);
   }
-  const nn::ClassifierOutputs out = nn::classify_windows(cls, poses, controls);
+  const nn::ClassifierOutputs out = windows.classify();
   std::vector<int> ids;
-  for (int w = 0; w < out.num_windows; ++w) {
-    const float* row = out.content_probabilities.data() + static_cast<size_t>(w) * out.num_content;
-    ids.push_back(static_cast<int>(std::max_element(row, row + out.num_content) - row));
-  }
+  for (int w = 0; w < out.num_windows; ++w) ids.push_back(detail::arg_max(out.content_probabilities, out.num_content, w));
   return ids;
 }
 

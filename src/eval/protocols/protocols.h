@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "eval/protocol.h"
+#include "nn/classifier/classify.h"
 
 namespace mosyn::eval {
 
@@ -51,6 +52,11 @@ namespace detail {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// Stability verdicts of the long-generation protocols (long_horizon, prefix_generation).
+constexpr double kFrozenFraction = 0.2;  // frozen: a window's body speed under this share of real
+constexpr double kExplodedExtent = 2.0;  // exploded: a joint this many times farther from the pelvis
+                                         // than the farthest in the real clips
+
 // Mean of the finite values; NaN when there is none.
 double mean_finite(const std::vector<double>& values);
 
@@ -79,6 +85,9 @@ double body_speed_mps(const MotionPositions& m);
 // is not finite.
 double largest_extent_m(const MotionPositions& m);
 
+// FID between two feature sets [N, F]; NaN when either has fewer than 2 rows.
+double fid_or_nan(const Eigen::MatrixXd& features1, const Eigen::MatrixXd& features2);
+
 // FID between the even- and odd-indexed rows of features [N, F] (the floor of a set against
 // itself); NaN under 4 rows.
 double split_half_fid(const Eigen::MatrixXd& features);
@@ -86,12 +95,36 @@ double split_half_fid(const Eigen::MatrixXd& features);
 // A classifier run (family "classifier") from options.classifier_dir, best.pt when present.
 nn::LoadedRun load_classifier(const EvalOptions& options);
 
-// Raw features of a motion of the evaluated dataset (info) as the classifier's inputs: unchanged
-// when the classifier was trained on the same feature layout, otherwise decoded to a clip and
-// encoded as its data (so one classifier scores every family). name is for messages.
-void classifier_inputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info, const std::vector<float>& pose,
-                       const std::vector<float>& control, int control_dim, const std::string& name,
-                       std::vector<float>* classifier_pose, std::vector<float>* classifier_control);
+// Motions of the evaluated dataset as a classifier's inputs, with the classifier's label ids.
+// Raw features pass unchanged when the classifier was trained on the same feature layout (decided
+// once); otherwise each motion is decoded to a clip and encoded as the classifier's data (e.g. a
+// joint-position model scored by a joint-rotation classifier), so one classifier scores every
+// family. The classifier and info must outlive this.
+class ClassifierInputs {
+ public:
+  ClassifierInputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info);
+  // Adds a raw motion (pose [T, D], control [T, C] of info's layout) with label ids in the
+  // classifier's vocabularies (-1 = none). name is for messages.
+  void add(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name, int content = -1,
+           int style = -1);
+  // The classifier's outputs for every motion added, in order.
+  nn::ClassifierOutputs classify() const;
+
+  std::vector<std::vector<float>> poses, controls;  // the classifier's raw inputs
+  std::vector<int> content, style;                  // the classifier's label ids, -1 = none
+
+ private:
+  const nn::LoadedRun& classifier_;
+  const data::DatasetInfo& info_;
+  bool same_features_;
+};
+
+// Index of the largest entry of row `row` of probabilities [N, k].
+int arg_max(const std::vector<float>& probabilities, int k, int row);
+
+// Percentage of rows of probabilities [N, k] whose arg-max is their label (label -1 skipped);
+// NaN when none.
+double recognised_percent(const std::vector<float>& probabilities, int k, const std::vector<int>& labels);
 
 // Extras with the run's "walk" content label (when it takes labels and knows "walk") and the
 // given warm-up: what the drawn-path protocols sample with.
