@@ -8,7 +8,7 @@
 // - distribution over time (section 6.3, Fig. 9): per frame, the distance of each sample's pose to
 //   the mean pose of the N samples, beside the same distance over the training data (every frame
 //   to the training data's mean pose). Poses are joint positions relative to the pelvis in the
-//   root's heading frame (the features decoded on a still root path), so facing does not count;
+//   root's heading frame (each frame turned back by the root's heading), so facing does not count;
 // - transitions (section 6.2), with a classifier: each sample's content recognised in windows of
 //   transition_window_s seconds; changes per minute and contents per sample beside the same counts
 //   on the real held-out clips (a floor of the classifier's own flicker).
@@ -20,6 +20,8 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/trajectory.h"
+#include "data/control.h"
 #include "eval/protocols/protocols.h"
 
 namespace mosyn::eval {
@@ -75,12 +77,20 @@ std::map<int, ContentReference> content_references(const EvalContext& ctx) {
   return refs;
 }
 
-// Joint positions relative to the pelvis in the heading frame [T, J * 3]: the raw pose decoded on a
-// still root path (zero control), so only the body's own pose counts.
-Eigen::MatrixXd heading_frame_pose(const nn::LoadedRun& run, const std::vector<float>& pose) {
-  const int frames = static_cast<int>(pose.size()) / run.context.pose_dim;
-  const std::vector<float> still(static_cast<size_t>(frames) * run.context.control_dim, 0.0f);
-  return detail::root_relative(motion_positions(nn::decode_motion(run, pose, still)).sequence());
+// Joint positions relative to the pelvis in the root's heading frame [T, J * 3], so only the body's
+// own pose counts: a decoded world motion turned back, frame by frame, by the heading of the
+// control it was placed on (decode_motion starts at heading 0).
+Eigen::MatrixXd heading_frame_pose(const nn::LoadedRun& run, const MotionPositions& world,
+                                   const std::vector<float>& control) {
+  std::vector<double> headings;
+  data::integrate_control(control, 0.0, &headings);
+  Eigen::MatrixXd out(world.num_frames, 3 * world.num_joints);
+  for (int t = 0; t < world.num_frames; ++t) {
+    const Eigen::Matrix3d back = heading_rotation(run.dataset.skeleton, -headings[t]).toRotationMatrix();
+    for (int j = 0; j < world.num_joints; ++j)
+      out.block<1, 3>(t, 3 * j) = (back * (world.position(t, j) - world.position(t, 0))).transpose();
+  }
+  return out;
 }
 
 // Mean and population std of every training frame's distance to the training mean pose, over
@@ -92,7 +102,9 @@ std::pair<double, double> training_spread(const EvalContext& ctx, int max_clips)
   std::vector<Eigen::MatrixXd> poses;
   Eigen::Index rows = 0;
   for (size_t k = 0; k < n; ++k) {
-    poses.push_back(heading_frame_pose(ctx.run(), clips[k * clips.size() / n].pose));
+    const data::ClipRecord& rec = clips[k * clips.size() / n];
+    poses.push_back(heading_frame_pose(ctx.run(), motion_positions(nn::decode_motion(ctx.run(), rec.pose, rec.control)),
+                                       rec.control));
     rows += poses.back().rows();
   }
   Eigen::MatrixXd all(rows, poses[0].cols());
@@ -189,7 +201,7 @@ void PrefixGenerationProtocol::score_prefix(EvalContext& ctx, size_t i, const st
       all.height_in.push_back(h >= ref.height_min && h <= ref.height_max ? 1.0 : 0.0);
     }
     all.real_height.push_back(ref.height_frames > 0 ? ref.height_sum / ref.height_frames : kNaN);
-    poses.push_back(heading_frame_pose(run, whole.pose));
+    poses.push_back(heading_frame_pose(run, m, whole.control));
     if (cls) {
       const int tw = std::max(2, static_cast<int>(std::lround(o.transition_window_s * run.dataset.fps)));
       const auto counts = transition_counts(
