@@ -207,7 +207,8 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
   cmd->add_option("--protocols", a->protocols,
                   "run only these comma-separated protocols, e.g. prediction,body_validity (default: all that apply: "
-                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, label_generation, long_horizon, prefix_generation)");
+                  "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, "
+                  "label_generation, long_horizon, prefix_generation)");
   cmd->add_option("--error-frames", a->options.error_frames,
                   "joint-position errors at these comma-separated frames (default 70,90,120,160,210: Habibie et al.)")
       ->delimiter(',')
@@ -233,9 +234,9 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_option("--label-seconds", a->options.label_seconds,
                   "label generation: seconds per sample (default: the dataset's window)");
   cmd->add_option("--prefix-generation", a->options.prefix_generation_s,
-                  "families that continue a prefix and make their own root motion: N samples of SECONDS after "
-                  "the first --prefix-frames of --prefix-clips held-out clips; stability, Fig. 9, transitions "
-                  "(rows prefix_generation.*; default off)");
+                  "families that continue a prefix: N samples of SECONDS after the first --prefix-frames of "
+                  "--prefix-clips held-out clips (along the long-horizon meander for families that take control); "
+                  "stability, Fig. 9, transitions (rows prefix_generation.*; default off)");
   cmd->add_option("--prefix-frames", a->options.prefix_generation_frames,
                   "prefix generation: real frames observed (default 20)");
   cmd->add_option("--prefix-clips", a->options.prefix_generation_clips,

@@ -7,9 +7,9 @@
 #include <limits>
 #include <map>
 
-#include "io/json_number.h"
 #include "core/error.h"
 #include "eval/protocol.h"
+#include "io/json_number.h"
 
 namespace mosyn::eval {
 

@@ -5,9 +5,9 @@
 #include <filesystem>
 
 #include "core/error.h"
-#include "io/zip_check.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
+#include "io/zip_check.h"
 #include "nn/checkpoint.h"
 #include "nn/run_info.h"
 

@@ -1,7 +1,7 @@
 #include "nn/run_info.h"
 
-#include "io/json_number.h"
 #include "core/error.h"
+#include "io/json_number.h"
 
 namespace mosyn::nn {
 

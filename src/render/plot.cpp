@@ -99,17 +99,16 @@ int digits_width(const std::string& text, int scale) {
 }
 
 void draw_digits(Image& image, int x, int y, const std::string& text, Rgb color, int scale) {
+  // One glyph cell: a scale x scale square with its top-left corner at (cx, cy), clipped.
+  auto fill_cell = [&](int cx, int cy) {
+    for (int py = std::max(cy, 0); py < std::min(cy + scale, image.height()); ++py)
+      for (int px = std::max(cx, 0); px < std::min(cx + scale, image.width()); ++px) image.set(px, py, color);
+  };
   for (size_t k = 0; k < text.size(); ++k) {
     const unsigned char* g = glyph(text[k]);
-    if (!g) continue;
-    for (int row = 0; row < 5; ++row)
-      for (int col = 0; col < 3; ++col)
-        if (g[row] & (4 >> col))
-          for (int a = 0; a < scale; ++a)
-            for (int b = 0; b < scale; ++b) {
-              const int px = x + static_cast<int>(k) * 4 * scale + col * scale + b, py = y + row * scale + a;
-              if (px >= 0 && py >= 0 && px < image.width() && py < image.height()) image.set(px, py, color);
-            }
+    for (int cell = 0; g && cell < 15; ++cell)  // 5 rows of 3 cells
+      if (g[cell / 3] & (4 >> (cell % 3)))
+        fill_cell(x + (static_cast<int>(k) * 4 + cell % 3) * scale, y + (cell / 3) * scale);
   }
 }
 

@@ -8,10 +8,10 @@
 #include <cstring>
 #include <fstream>
 
-#include "io/json_number.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
+#include "io/json_number.h"
 
 namespace mosyn::nn::training {
 

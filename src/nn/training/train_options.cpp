@@ -2,8 +2,8 @@
 #include <cstdint>
 #include <string>
 
-#include "io/json_number.h"
 #include "core/error.h"
+#include "io/json_number.h"
 #include "nn/training/train.h"
 
 namespace mosyn::nn {

@@ -19,9 +19,9 @@
 #include <random>
 #include <sstream>
 
-#include "io/json_number.h"
 #include "core/error.h"
 #include "io/json_file.h"
+#include "io/json_number.h"
 #include "nn/checkpoint.h"
 #include "nn/model.h"
 #include "nn/run_info.h"
