@@ -19,6 +19,8 @@
 // Errors are mosyn::Error "<family> config: ...". Header-only; no LibTorch.
 #pragma once
 
+#include <climits>
+#include <cstdint>
 #include <functional>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
@@ -48,7 +50,12 @@ template <class T>
 struct JsonType;
 template <>
 struct JsonType<int> {
-  static bool is(const nlohmann::json& j) { return j.is_number_integer(); }
+  // An integer that fits int: a larger one would wrap on conversion (e.g. "hidden": 10000000000
+  // into a positive 1410065408 that passes every range check and allocates without bound).
+  static bool is(const nlohmann::json& j) {
+    if (j.is_number_unsigned()) return j.get<std::uint64_t>() <= static_cast<std::uint64_t>(INT_MAX);
+    return j.is_number_integer() && j.get<std::int64_t>() >= INT_MIN && j.get<std::int64_t>() <= INT_MAX;
+  }
   static const char* error() { return "must be an integer"; }
 };
 template <>

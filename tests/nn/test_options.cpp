@@ -56,6 +56,8 @@ TEST(Options, BadValuesGiveTheSameMessagesAsBefore) {
       {"moglow", {{"preset", "huge"}}, "moglow config: unknown preset 'huge' (known: default, paper)"},
       {"moglow", {{"nonsense", 1}}, "moglow config: unknown key 'nonsense'"},
       {"moglow", {{"hidden", 2.5}}, "moglow config: 'hidden' must be an integer"},
+      {"moglow", {{"hidden", 10000000000LL}}, "moglow config: 'hidden' must be an integer"},  // would wrap to int
+      {"moglow", {{"lookahead", {1, -10000000000LL}}}, "moglow config: 'lookahead' must be an array of integers"},
       {"moglow", {{"dropout", "x"}}, "moglow config: 'dropout' must be a number"},
       {"moglow", {{"labels", 1}}, "moglow config: 'labels' must be true or false"},
       {"moglow", {{"lookahead", {1, "x"}}}, "moglow config: 'lookahead' must be an array of integers"},
