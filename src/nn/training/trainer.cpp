@@ -23,6 +23,7 @@
 #include "io/json_file.h"
 #include "io/json_number.h"
 #include "nn/checkpoint.h"
+#include "nn/cpu_block_cache.h"
 #include "nn/model.h"
 #include "nn/run_info.h"
 #include "nn/training/batches.h"
@@ -153,6 +154,7 @@ Trainer::Trainer(const TrainOptions& opts, const data::Dataset& dataset, const T
     : opts_(opts), dataset_(dataset), cb_(cb), paths_(fs::path(opts.out_dir)), device_(torch::kCPU) {
   check_options(opts_);
   set_num_threads(opts_.threads);
+  use_cpu_block_cache();  // a step reallocates the same large activations: keep them (cpu_block_cache.h)
   device_ = rank_device(opts_);
   if (opts_.distributed.enabled()) connect();
   context_ = context_for(dataset.info(), dataset.stats());
