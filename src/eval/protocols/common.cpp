@@ -124,6 +124,31 @@ void ClassifierInputs::add(const std::vector<float>& pose, const std::vector<flo
   style.push_back(style_id);
 }
 
+int ClassifierInputs::add_in_windows(const std::vector<float>& pose, const std::vector<float>& control,
+                                     const std::string& name, int content_id, int style_id) {
+  add(pose, control, name, content_id, style_id);  // in the classifier's features, then cut
+  const int window = classifier_.dataset.window_frames;
+  const int hop = classifier_.dataset.window_hop > 0 ? classifier_.dataset.window_hop : window;
+  const int d = classifier_.context.pose_dim, c = classifier_.context.control_dim;
+  const int frames = static_cast<int>(poses.back().size()) / d;
+  if (window <= 0 || frames <= window) return 1;
+  std::vector<float> whole_pose = std::move(poses.back()), whole_control = std::move(controls.back());
+  poses.pop_back();
+  controls.pop_back();
+  content.pop_back();
+  style.pop_back();
+  std::vector<int> starts;
+  for (int from = 0; from + window <= frames; from += hop) starts.push_back(from);
+  if (starts.back() + window < frames) starts.push_back(frames - window);
+  for (int from : starts) {
+    poses.push_back(rows_of(whole_pose, from, from + window, d));
+    controls.push_back(whole_control.empty() ? std::vector<float>{} : rows_of(whole_control, from, from + window, c));
+    content.push_back(content_id);
+    style.push_back(style_id);
+  }
+  return static_cast<int>(starts.size());
+}
+
 nn::ClassifierOutputs ClassifierInputs::classify() const { return nn::classify_windows(classifier_, poses, controls); }
 
 int arg_max(const std::vector<float>& probabilities, int k, int row) {

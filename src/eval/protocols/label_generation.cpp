@@ -61,7 +61,7 @@ void LabelGenerationProtocol::sample_every_combination(EvalContext& ctx, const n
     const int ci = nn::translate_label(extras.content, contents, cls.dataset.content_labels);
     const int si = nn::translate_label(extras.style, styles, cls.dataset.style_labels);
     for (size_t n = 0; n < motions.size(); ++n)
-      set->add(motions[n].pose, motions[n].control, "label sample " + std::to_string(k) + "." + std::to_string(n), ci,
+      set->add_in_windows(motions[n].pose, motions[n].control, "label sample " + std::to_string(k) + "." + std::to_string(n), ci,
                si);
   }
   ctx.report("label generation", combinations, combinations);
@@ -71,7 +71,7 @@ void LabelGenerationProtocol::real_clips(const EvalContext& ctx, const nn::Loade
   const data::DatasetInfo& info = ctx.info();
   for (const data::ClipRecord& rec : ctx.dataset().clips(ctx.options().split)) {
     if ((rec.mirrored || rec.reversed) && !ctx.options().include_augmented) continue;
-    set->add(rec.pose, rec.control, rec.source,
+    set->add_in_windows(rec.pose, rec.control, rec.source,
              nn::translate_label(rec.content, info.content_labels, cls.dataset.content_labels),
              nn::translate_label(rec.style, info.style_labels, cls.dataset.style_labels));
   }
@@ -88,7 +88,7 @@ void LabelGenerationProtocol::run(EvalContext& ctx, EvalResult& result) const {
   auto row = [&](const std::string& key, const std::string& label, double m, double r) {
     result.rows.push_back({"label_generation." + key, "by label: " + label, m, r});
   };
-  row("samples", "motions scored (samples: every label combination)", mo.num_windows, ro.num_windows);
+  row("samples", "windows scored (samples: every label combination)", mo.num_windows, ro.num_windows);
   row("is_content", "Inception score (content)",
       inception_score(to_matrix(mo.content_probabilities, mo.num_windows, mo.num_content)),
       inception_score(to_matrix(ro.content_probabilities, ro.num_windows, ro.num_content)));

@@ -25,8 +25,8 @@ void gather(EvalContext& ctx, const nn::LoadedRun& cls, detail::ClassifierInputs
     const int ci = translate_label(rec.content, info.content_labels, cls.dataset.content_labels);
     const int si = translate_label(rec.style, info.style_labels, cls.dataset.style_labels);
     for (int k = 0; k < ctx.num_samples(); ++k)
-      model->add(motions[i][k].pose, motions[i][k].control, rec.source + " sample " + std::to_string(k), ci, si);
-    real->add(rec.pose, rec.control, rec.source, ci, si);
+      model->add_in_windows(motions[i][k].pose, motions[i][k].control, rec.source + " sample " + std::to_string(k), ci, si);
+    real->add_in_windows(rec.pose, rec.control, rec.source, ci, si);
   }
 }
 
