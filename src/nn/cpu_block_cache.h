@@ -8,8 +8,9 @@
 // removes that cost, as LibTorch's CUDA caching allocator does on the GPU.
 //
 // Blocks of at least kMinCachedBytes are rounded up to 64 KiB and reused by any later request
-// that they fit within 1/8 of their size; smaller requests go to the allocator this one replaced.
-// At most kMaxCachedBytes of free blocks are kept; beyond that, freed blocks return to the system.
+// that they fit within 1/8 of their size; smaller ones are plain aligned allocations, freed at
+// once. Every block carries a 64-byte size header, so one deleter serves all (oneDNN's
+// raw_allocate/raw_deallocate need that). At most kMaxCachedBytes of free blocks are kept; beyond that, freed blocks return to the system.
 // Thread-safe. The values in a reused block are whatever its last tensor left (LibTorch never
 // assumes fresh memory is zeroed: torch::empty semantics).
 #pragma once

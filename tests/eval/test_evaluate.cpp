@@ -394,12 +394,12 @@ TEST_F(EvaluateTest, LabelGenerationScoresEveryCombination) {
   const auto r = eval::evaluate(run, *dataset_, e);
   EXPECT_EQ(r.protocols, (std::vector<std::string>{"label_generation"}));
   EXPECT_EQ(r.row("label_generation.samples").model, 4 * 2 * 3);  // contents x styles x K
-  // Real: the original held-out clips in the classifier's windows (40 frames, hop 10; the tail too).
+  // Real: the original held-out clips in the classifier's windows (30 frames, hop 15; the tail too).
   int real_windows = 0;
   for (const data::ClipRecord& c : dataset_->clips("val")) {
     if (c.mirrored || c.reversed) continue;
     const int frames = c.num_frames;
-    real_windows += frames <= 40 ? 1 : (frames - 40) / 10 + 1 + ((frames - 40) % 10 != 0);
+    real_windows += frames <= 30 ? 1 : (frames - 30) / 15 + 1 + ((frames - 30) % 15 != 0);
   }
   EXPECT_EQ(r.row("label_generation.samples").real, real_windows);
   for (const char* key : {"label_generation.is_content", "label_generation.is_style", "label_generation.fid",
@@ -475,31 +475,32 @@ TEST_F(EvaluateTest, CompareRunsSideBySide) {
   EXPECT_THROW(eval::compare({}, o), Error);
 }
 
-// Clips longer than the classifier's training window are scored in its windows (starts 0, hop,
-// ... and one ending at the last frame), each window one entry with the clip's labels.
+// Clips longer than the classifier's training window (its config's train.window, 30 frames) are
+// scored in its windows (starts 0, 15, ... and one ending at the last frame), each window one
+// entry with the clip's labels.
 TEST(ClassifierInputs, LongMotionsAreCutIntoTheClassifiersWindows) {
   const fs::path models = fs::path(MOSYN_SOURCE_DIR) / "tests" / "models";
   const nn::LoadedRun cls = nn::load_run((models / "classifier").string());
   const data::DatasetInfo& info = cls.dataset;
-  ASSERT_EQ(info.window_frames, 40);
-  ASSERT_EQ(info.window_hop, 10);
-  const int d = info.layout.pose_dim, c = info.layout.control_dim, frames = 75;
+  ASSERT_EQ(eval::detail::training_window(cls), 30);
+  ASSERT_EQ(info.window_frames, 40);  // the dataset's windows, not the ones it was trained on
+  const int d = info.layout.pose_dim, c = info.layout.control_dim, frames = 80;
   std::vector<float> pose(static_cast<size_t>(frames) * d), control(static_cast<size_t>(frames) * c);
   for (size_t i = 0; i < pose.size(); ++i) pose[i] = static_cast<float>(i / d);  // value = frame index
   for (size_t i = 0; i < control.size(); ++i) control[i] = static_cast<float>(i / c);
   eval::detail::ClassifierInputs set(cls, info);
-  EXPECT_EQ(set.add_in_windows(pose, control, "long", 2, 3), 5);  // 0, 10, 20, 30 and 35 (the tail)
-  EXPECT_EQ(set.add_in_windows(std::vector<float>(pose.begin(), pose.begin() + 40 * d),
-                               std::vector<float>(control.begin(), control.begin() + 40 * c), "one window"),
+  EXPECT_EQ(set.add_in_windows(pose, control, "long", 2, 3), 5);  // 0, 15, 30, 45 and 50 (the tail)
+  EXPECT_EQ(set.add_in_windows(std::vector<float>(pose.begin(), pose.begin() + 30 * d),
+                               std::vector<float>(control.begin(), control.begin() + 30 * c), "one window"),
             1);
   EXPECT_EQ(set.add_in_windows(std::vector<float>(pose.begin(), pose.begin() + 25 * d),
                                std::vector<float>(control.begin(), control.begin() + 25 * c), "short"),
             1);
   ASSERT_EQ(set.poses.size(), 7u);
-  const std::vector<int> first_frames = {0, 10, 20, 30, 35, 0, 0};
+  const std::vector<int> first_frames = {0, 15, 30, 45, 50, 0, 0};
   for (size_t k = 0; k < set.poses.size(); ++k) {
     const size_t len = set.poses[k].size() / d;
-    EXPECT_EQ(len, k < 6 ? 40u : 25u) << k;
+    EXPECT_EQ(len, k < 6 ? 30u : 25u) << k;
     EXPECT_EQ(set.poses[k].front(), static_cast<float>(first_frames[k])) << k;
     EXPECT_EQ(set.poses[k].back(), static_cast<float>(first_frames[k] + len - 1)) << k;
     EXPECT_EQ(set.controls[k].size(), len * c) << k;

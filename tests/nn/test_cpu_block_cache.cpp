@@ -1,8 +1,10 @@
 // The CPU block cache (nn/cpu_block_cache.h): large tensors reuse freed blocks, small ones do not
 // pass through it, values survive, limits hold, and concurrent use stays consistent.
 #include <gtest/gtest.h>
+#include <c10/core/CPUAllocator.h>
 #include <torch/torch.h>
 
+#include <cstring>
 #include <thread>
 #include <vector>
 
@@ -65,6 +67,34 @@ TEST(CpuBlockCache, ValuesAndGradientsAreUnchanged) {
     a.mutable_grad().reset();
   }
   EXPECT_GT(cpu_block_cache_stats().reuses, 0);
+}
+
+// oneDNN (mkldnn convolutions) allocates through raw_allocate / raw_deallocate, which need one
+// deleter for every block and data == context, small and large.
+TEST(CpuBlockCache, RawAllocationsAndConvolutions) {
+  use_cpu_block_cache();
+  c10::Allocator* allocator = c10::GetCPUAllocator();
+  ASSERT_NE(allocator->raw_deleter(), nullptr);
+  for (size_t bytes : {size_t{16}, size_t{5000}, size_t{3} << 20}) {
+    void* p = allocator->raw_allocate(bytes);
+    ASSERT_NE(p, nullptr);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(p) % 64, 0u);
+    std::memset(p, 1, bytes);
+    allocator->raw_deallocate(p);
+  }
+  torch::manual_seed(4);
+  torch::nn::Conv1d conv(torch::nn::Conv1dOptions(8, 16, 5).padding(2));
+  auto x = torch::randn({4, 8, 300}, torch::requires_grad());
+  for (int round = 0; round < 2; ++round) {
+    auto y = conv->forward(x);
+    // The convolution by hand: y[b, o, t] = bias[o] + sum_{i, k} w[o, i, k] x[b, i, t + k - 2].
+    auto xp = torch::constant_pad_nd(x.detach(), {2, 2});
+    auto expected = torch::einsum("oik,bitk->bot", {conv->weight.detach(), xp.unfold(2, 5, 1)}) +
+                    conv->bias.detach().view({1, 16, 1});
+    EXPECT_TRUE(torch::allclose(y.detach(), expected, 1e-4, 1e-4));
+    y.sum().backward();
+    x.mutable_grad().reset();
+  }
 }
 
 TEST(CpuBlockCache, ConcurrentUseKeepsTheBooksStraight) {

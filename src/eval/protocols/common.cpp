@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "data/control.h"
 #include "data/prepare.h"
+#include "io/json_number.h"
 #include "eval/protocols/protocols.h"
 
 namespace mosyn::eval::detail {
@@ -124,11 +125,17 @@ void ClassifierInputs::add(const std::vector<float>& pose, const std::vector<flo
   style.push_back(style_id);
 }
 
+int training_window(const nn::LoadedRun& run) {
+  const auto& train = run.config.contains("train") ? run.config["train"] : nlohmann::json::object();
+  const int window = train.contains("window") ? io::json_get<int>(train["window"]) : 0;
+  return window > 0 ? window : run.dataset.window_frames;
+}
+
 int ClassifierInputs::add_in_windows(const std::vector<float>& pose, const std::vector<float>& control,
                                      const std::string& name, int content_id, int style_id) {
   add(pose, control, name, content_id, style_id);  // in the classifier's features, then cut
-  const int window = classifier_.dataset.window_frames;
-  const int hop = classifier_.dataset.window_hop > 0 ? classifier_.dataset.window_hop : window;
+  const int window = training_window(classifier_);
+  const int hop = std::max(1, window / 2);  // as the trainer's validation windows
   const int d = classifier_.context.pose_dim, c = classifier_.context.control_dim;
   const int frames = static_cast<int>(poses.back().size()) / d;
   if (window <= 0 || frames <= window) return 1;

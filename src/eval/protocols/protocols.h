@@ -107,12 +107,10 @@ class ClassifierInputs {
   // classifier's vocabularies (-1 = none). name is for messages.
   void add(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name, int content = -1,
            int style = -1);
-  // Adds a motion as the classifier was trained: cut into windows of its training length and hop
-  // (starts 0, hop, 2 hop, ... while the window fits, plus one window ending at the last frame
-  // when those miss the tail), each one entry with the motion's labels; a motion no longer than
-  // one window is one entry. A conv net whose features are averaged over time misjudges clips
-  // many times its training length (whole Bandai-Namco clips: content 28 % against 96-100 % on
-  // 200-frame crops of the same clips). Returns the number of entries added.
+  // Adds a motion as the classifier was trained: cut into windows of its training length
+  // (training_window) with half a window's hop (starts 0, hop, 2 hop, ... while the window fits,
+  // plus one window ending at the last frame when those miss the tail), each one entry with the
+  // motion's labels; a motion no longer than one window is one entry. Returns the entries added.
   int add_in_windows(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
                      int content = -1, int style = -1);
   // The classifier's outputs for every entry added, in order.
@@ -126,6 +124,9 @@ class ClassifierInputs {
   const data::DatasetInfo& info_;
   bool same_features_;
 };
+
+// Frames of the windows a run was trained on: its config's "train"."window", else its dataset's.
+int training_window(const nn::LoadedRun& run);
 
 // Index of the largest entry of row `row` of probabilities [N, k].
 int arg_max(const std::vector<float>& probabilities, int k, int row);
