@@ -498,14 +498,18 @@ const std::vector<ClipRecord>& Dataset::clips(const std::string& split) const {
   throw Error("unknown dataset split '" + split + "' (expected train or val)");
 }
 
-std::vector<WindowRef> Dataset::windows(const std::string& split, int window_frames, int hop) const {
+std::vector<WindowRef> Dataset::windows(const std::string& split, int window_frames, int hop,
+                                        int min_short_frames) const {
   const std::vector<ClipRecord>& list = clips(split);
   if (window_frames == 0) window_frames = info_.window_frames;
   if (hop == 0) hop = info_.window_hop;
   if (window_frames <= 0 || hop <= 0) throw Error("windows: window length and hop must be positive");
   std::vector<WindowRef> out;
-  for (int c = 0; c < static_cast<int>(list.size()); ++c)
-    for (int start = 0; start + window_frames <= list[c].num_frames; start += hop) out.push_back({c, start});
+  for (int c = 0; c < static_cast<int>(list.size()); ++c) {
+    const int frames = list[c].num_frames;
+    if (frames < window_frames && min_short_frames > 0 && frames >= min_short_frames) out.push_back({c, 0, frames});
+    for (int start = 0; start + window_frames <= frames; start += hop) out.push_back({c, start});
+  }
   return out;
 }
 

@@ -98,10 +98,12 @@ struct DatasetInfo {
   double max_train_seconds = 0;
 };
 
-// One training window: clip index within a split and first frame.
+// One training window: clip index within a split, first frame, and for a clip shorter than the
+// window its own length (frames > 0; the window is then padded by whoever cuts it).
 struct WindowRef {
   int clip = 0;
   int start = 0;
+  int frames = 0;  // 0: a full window
 };
 
 class Dataset {
@@ -116,9 +118,13 @@ class Dataset {
   // split is "train" or "val"; throws mosyn::Error otherwise.
   const std::vector<ClipRecord>& clips(const std::string& split) const;
   // Every window of window_frames frames with the given hop (0 = the dataset's own) in a split:
-  // for each clip, starts 0, hop, 2 hop, ... while start + window_frames <= num_frames; clips
-  // shorter than a window give none. Throws mosyn::Error for a bad split or non-positive sizes.
-  std::vector<WindowRef> windows(const std::string& split, int window_frames = 0, int hop = 0) const;
+  // for each clip, starts 0, hop, 2 hop, ... while start + window_frames <= num_frames. A clip
+  // shorter than a window gives none, unless min_short_frames > 0 and it has at least that many
+  // frames: then one window at frame 0 of its own length (WindowRef::frames), for models that mask
+  // padding (the hierarchical VRNN's sequences "up to 200 frames"). Throws mosyn::Error for a bad
+  // split or non-positive sizes.
+  std::vector<WindowRef> windows(const std::string& split, int window_frames = 0, int hop = 0,
+                                 int min_short_frames = 0) const;
 
   DatasetInfo info_;
   DatasetStats stats_;

@@ -22,6 +22,9 @@ struct Batch {
   torch::Tensor control;  // [B, T, C] float, standardised
   torch::Tensor content;  // [B] int64, -1 = none (may be undefined: all none)
   torch::Tensor style;    // [B] int64, -1 = none (may be undefined: all none)
+  // [B] int64, valid frames of each window, in 1..T (may be undefined: all T). Only families whose
+  // short_window_min_frames() > 0 get windows with fewer: frames past it repeat the last valid one.
+  torch::Tensor frames;
 };
 
 // Named scalar tensors returned by TrainableModel::loss. terms["loss"] is the total that the
@@ -64,6 +67,11 @@ class TrainableModel : public torch::nn::Module {
   // inside it), before its first step, so a family can switch its objective (e.g. loss() of the
   // prior stage scores the prior only). Default: no-op.
   virtual void begin_stage(int index, const TrainingStage& stage) {}
+
+  // Clips shorter than the training window: 0 (the default) leaves them out; n > 0 includes each
+  // clip of at least n frames as one window padded to the window's length, with Batch::frames
+  // telling the valid part, for families whose loss masks padding.
+  virtual int short_window_min_frames() const { return 0; }
 
   // Training objective on a batch. Uses training-only regularisers (e.g. data dropout) only when
   // is_training(). Random choices draw from the default CPU generator (torch::manual_seed).

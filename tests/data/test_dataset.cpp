@@ -169,6 +169,14 @@ TEST(Dataset, WriteOpenAndValidate) {
   EXPECT_EQ(w[2].start, 4);
   EXPECT_TRUE(d.windows("val").empty());
   EXPECT_EQ(d.windows("val", 3, 1).size(), 1u);
+  // Short clips as one padded window, for families that mask padding: at least min frames.
+  const std::vector<WindowRef> short_ones = d.windows("val", 4, 2, 2);
+  ASSERT_EQ(short_ones.size(), 1u);
+  EXPECT_EQ(short_ones[0].start, 0);
+  EXPECT_EQ(short_ones[0].frames, 3);
+  EXPECT_TRUE(d.windows("val", 4, 2, 4).empty());
+  EXPECT_EQ(d.windows("train", 4, 2, 2).size(), 3u);  // long enough: full windows only
+  EXPECT_EQ(d.windows("train", 4, 2, 2)[0].frames, 0);
 
   // Truncated cache.
   const std::string train_path = (dir / "train.bin").string();

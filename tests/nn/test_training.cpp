@@ -1,5 +1,6 @@
 // Trainer and run directories: exact resume, refusal to overwrite, divergence handling,
 // corrupt checkpoints, load_run, sampling determinism from a run.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <torch/nn/module.h>
 #include <torch/optim/adam.h>
@@ -15,11 +16,14 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/synthetic.h"
+#include "data/dataset.h"
 #include "nn/checkpoint.h"
 #include "nn/generator.h"
 #include "nn/model.h"
 #include "nn/run.h"
 #include "nn/sampling.h"
+#include "nn/training/batches.h"
 #include "nn/training/train.h"
 #include "nn_test_util.h"
 
@@ -525,4 +529,66 @@ TEST(Training, NonFiniteCheckpointAndTooSmallDatasetAreRefused) {
     EXPECT_NE(what.find("has " + std::to_string(longest) + " frames"), std::string::npos) << what;
   }
   fs::remove_all(big.out_dir);
+}
+
+namespace {
+
+data::ClipRecord labelled_clip(const std::string& source, int frames, int pose_dim, int content) {
+  data::ClipRecord r;
+  r.source = source;
+  r.content = content;
+  r.style = 0;
+  r.num_frames = frames;
+  for (int i = 0; i < frames * pose_dim; ++i) r.pose.push_back(0.25f * i);
+  for (int i = 0; i < frames * 3; ++i) r.control.push_back(-0.5f * i);
+  return r;
+}
+
+}  // namespace
+
+// Clips shorter than the window: left out (with a warning that names the labels never seen) for
+// most families, or one padded window with its length for families that mask padding (hvrnn).
+TEST(Training, ShortClipsAreNamedOrPaddedWithTheirLength) {
+  const fs::path dir = temp_dir("short_clips");
+  data::DatasetInfo info;
+  info.skeleton = make_synthetic_biped();
+  info.layout = data::make_layout(info.skeleton, data::PoseForm::kPositions, 0, Eigen::Vector3d(0, 0, 1));
+  info.window_frames = 4;
+  info.window_hop = 2;
+  info.content_labels = {"walk", "raise-hand"};
+  info.style_labels = {"normal"};
+  info.train_files = {"a.bvh", "b.bvh"};
+  info.val_files = {"c.bvh"};
+  info.source_dir = "/src";
+  const int d = info.layout.pose_dim;
+  const std::vector<data::ClipRecord> train = {labelled_clip("a.bvh", 9, d, 0), labelled_clip("b.bvh", 3, d, 1)};
+  data::write_dataset(dir.string(), info, data::compute_stats(train, d, 3), train, {labelled_clip("c.bvh", 6, d, 0)},
+                      false);
+  const data::Dataset dataset = data::Dataset::open(dir.string());
+
+  const std::string warning = training::left_out_warning(dataset, 4, 0);
+  EXPECT_THAT(warning, ::testing::HasSubstr("1 of 2 training clips (25% of the frames)"));
+  EXPECT_THAT(warning, ::testing::HasSubstr("contents never seen: raise-hand (longest clip 3 frames)"));
+  EXPECT_THAT(warning, ::testing::Not(::testing::HasSubstr("styles never seen")));
+  EXPECT_EQ(training::left_out_warning(dataset, 4, 2), "");
+  EXPECT_EQ(training::left_out_warning(dataset, 3, 0), "");
+
+  const training::SplitWindows plain = training::training_windows(dataset, 4);
+  EXPECT_EQ(plain.windows.size(), 6u);  // starts 0..5 of the 9-frame clip
+  const training::SplitWindows padded = training::training_windows(dataset, 4, 2);
+  ASSERT_EQ(padded.windows.size(), 7u);
+  const training::BatchMaker maker(dataset, d, 3, torch::kCPU);
+  EXPECT_FALSE(maker.make(plain, 0, 2).frames.defined());
+  const data::WindowRef short_window = padded.windows[6];
+  ASSERT_EQ(short_window.frames, 3);
+  const Batch b = maker.make(padded, std::vector<data::WindowRef>{padded.windows[0], short_window});
+  ASSERT_TRUE(b.frames.defined());
+  EXPECT_EQ(b.frames[0].item<int64_t>(), 4);
+  EXPECT_EQ(b.frames[1].item<int64_t>(), 3);
+  EXPECT_EQ(b.pose.sizes(), (std::vector<int64_t>{2, 4, d}));
+  EXPECT_TRUE(torch::equal(b.pose[1][3], b.pose[1][2]));  // padding repeats the last frame
+  EXPECT_TRUE(torch::equal(b.control[1][3], b.control[1][2]));
+  EXPECT_FALSE(torch::equal(b.pose[1][2], b.pose[1][1]));
+  EXPECT_EQ(b.content[1].item<int64_t>(), 1);
+  fs::remove_all(dir);
 }

@@ -247,7 +247,13 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   const int64_t b = pose.size(0), t = pose.size(1), l = options_.word_length;
   auto frames = pad_to_words(torch::cat({pose, batch.control}, -1), l);
   const int64_t n = frames.size(1) / l;
-  auto mask = (torch::arange(frames.size(1), pose.options()) < static_cast<double>(t)).to(pose.dtype()).unsqueeze(0);
+  // Valid frames per window ([B, 1]): padding to whole words and short clips' padding are masked
+  // out of recon, validity and geodesic; a word counts in the KL when it starts on a valid frame.
+  auto valid_frames = batch.frames.defined() ? batch.frames.to(pose.device()).to(torch::kInt64).clamp(1, t).unsqueeze(1)
+                                             : torch::full({b, 1}, t, torch::dtype(torch::kInt64).device(pose.device()));
+  const auto index_options = torch::dtype(torch::kInt64).device(pose.device());
+  auto mask = (torch::arange(frames.size(1), index_options).unsqueeze(0) < valid_frames).to(pose.dtype());
+  auto word_mask = (torch::arange(n, index_options).unsqueeze(0) * l < valid_frames).to(pose.dtype());
   const double pl = is_training() ? options_.label_dropout : 0.0;
   auto content = drop_labels(batch.content, pl), style = drop_labels(batch.style, pl);
   auto a = label_code(content, style, b, pose.options());
@@ -258,16 +264,21 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr);
   auto pred = decode_words(u.out);
   auto r = reconstruction(pred, frames);
-  const double valid = static_cast<double>(b * t);
+  auto valid = mask.sum();
   auto recon = (r.recon * mask).sum() / valid;
   auto validity = (r.validity * mask).sum() / valid;
-  auto kl = u.kl.sum() / valid;
+  auto kl = (u.kl * word_mask).sum() / valid;
   const double w_kl = is_training() ? current_kl_weight() : options_.kl_weight;
   auto total = recon + w_kl * kl + options_.validity_weight * validity;
   torch::Tensor cl = torch::zeros({}, total.options());
   const double w_cl = is_training() ? current_classifier_weight() : options_.classifier_weight;
   if (!options_.classifier_run.empty() && w_cl > 0) {
-    cl = classifier_term(pred.narrow(1, 0, t), frames.narrow(1, 0, t), batch);
+    // The classifier sees each window as the data pads it: its last valid frame repeated.
+    auto last_valid = torch::minimum(torch::arange(t, index_options).unsqueeze(0), valid_frames - 1);  // [B, t]
+    auto held = [&](const torch::Tensor& x) {
+      return x.narrow(1, 0, t).gather(1, last_valid.unsqueeze(-1).expand({b, t, x.size(2)}));
+    };
+    cl = classifier_term(held(pred), held(frames), batch);
     total = total + w_cl * cl;
   }
   LossTerms terms;

@@ -126,6 +126,9 @@ class HvrnnImpl : public MotionModel {
   // Terms per valid frame: "recon" (hierarchical geodesic + root squared error, or squared error
   // without geometry), "kl", "validity", "classifier", "geodesic" (mean angle, rad), weights; "loss".
   LossTerms loss(const Batch& batch) override;
+  // Clips shorter than the window train too (the paper's sequences of up to 200 frames from clip
+  // starts), at least one word long; padding is masked out of every term.
+  int short_window_min_frames() const override { return options_.word_length; }
   SampleOutput sample(const SampleRequest& request) override;
   ModelTraits traits() const override;
   // Frame by frame, equal to sample() for the same request: a new word is generated whenever

@@ -1,7 +1,9 @@
 #include "nn/training/batches.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <sstream>
 #include <string>
 
 #include <ATen/CPUGeneratorImpl.h>
@@ -10,11 +12,12 @@
 
 namespace mosyn::nn::training {
 
-SplitWindows training_windows(const data::Dataset& dataset, int window) {
+SplitWindows training_windows(const data::Dataset& dataset, int window, int min_short_frames) {
   SplitWindows s;
   s.clips = &dataset.clips("train");
-  s.windows = dataset.windows("train", window, 1);
+  s.windows = dataset.windows("train", window, 1, min_short_frames);
   s.window = window;
+  s.padded = min_short_frames > 0;
   if (s.windows.empty()) {
     int longest = 0;
     for (const data::ClipRecord& c : *s.clips) longest = std::max(longest, c.num_frames);
@@ -25,11 +28,12 @@ SplitWindows training_windows(const data::Dataset& dataset, int window) {
   return s;
 }
 
-SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows) {
+SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames) {
   SplitWindows s;
   s.clips = &dataset.clips("val");
   s.window = window;
-  const auto all = dataset.windows("val", window, std::max(1, window / 2));
+  s.padded = min_short_frames > 0;
+  const auto all = dataset.windows("val", window, std::max(1, window / 2), min_short_frames);
   const size_t n = std::min<size_t>(all.size(), std::max(0, max_windows));
   for (size_t i = 0; i < n; ++i) s.windows.push_back(all[i * all.size() / n]);
   return s;
@@ -63,22 +67,72 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
   auto ctrl = torch::empty({count, window, c_});
   auto content = torch::empty({count}, torch::kInt64);
   auto style = torch::empty({count}, torch::kInt64);
+  auto frames = torch::empty({count}, torch::kInt64);
   for (int64_t i = 0; i < count; ++i) {
     const data::WindowRef& w = windows[i];
     const auto& clip = (*split.clips)[w.clip];
+    const int valid = w.frames > 0 ? std::min(w.frames, window) : window;
     std::memcpy(pose[i].data_ptr<float>(), clip.pose.data() + static_cast<size_t>(w.start) * d_,
-                sizeof(float) * window * d_);
+                sizeof(float) * valid * d_);
     std::memcpy(ctrl[i].data_ptr<float>(), clip.control.data() + static_cast<size_t>(w.start) * c_,
-                sizeof(float) * window * c_);
+                sizeof(float) * valid * c_);
+    if (valid < window) {  // padding repeats the last frame
+      pose[i].narrow(0, valid, window - valid).copy_(pose[i][valid - 1].expand({window - valid, d_}));
+      ctrl[i].narrow(0, valid, window - valid).copy_(ctrl[i][valid - 1].expand({window - valid, c_}));
+    }
     content[i] = clip.content;
     style[i] = clip.style;
+    frames[i] = valid;
   }
   Batch b;
+  if (split.padded) b.frames = frames.to(device_);
   b.pose = with_constant_noise(standardiser_.pose(pose), windows).to(device_);
   b.control = standardiser_.control(ctrl).to(device_);
   b.content = content.to(device_);
   b.style = style.to(device_);
   return b;
+}
+
+std::string left_out_warning(const data::Dataset& dataset, int window, int min_short_frames) {
+  const data::DatasetInfo& info = dataset.info();
+  const auto& clips = dataset.clips("train");
+  const size_t nc = info.content_labels.size(), ns = info.style_labels.size();
+  std::vector<int> content_windows(nc, 0), style_windows(ns, 0), content_longest(nc, 0), style_longest(ns, 0);
+  int left_out = 0;
+  int64_t frames_left_out = 0, frames_total = 0;
+  for (const data::ClipRecord& c : clips) {
+    frames_total += c.num_frames;
+    const bool kept = c.num_frames >= window || (min_short_frames > 0 && c.num_frames >= min_short_frames);
+    if (!kept) {
+      ++left_out;
+      frames_left_out += c.num_frames;
+    }
+    if (c.content >= 0 && c.content < static_cast<int>(nc)) {
+      content_windows[c.content] += kept;
+      content_longest[c.content] = std::max(content_longest[c.content], c.num_frames);
+    }
+    if (c.style >= 0 && c.style < static_cast<int>(ns)) {
+      style_windows[c.style] += kept;
+      style_longest[c.style] = std::max(style_longest[c.style], c.num_frames);
+    }
+  }
+  if (left_out == 0) return "";
+  std::ostringstream m;
+  m << "warning: " << left_out << " of " << clips.size() << " training clips ("
+    << std::lround(100.0 * frames_left_out / std::max<int64_t>(1, frames_total))
+    << "% of the frames) are shorter than the " << window << "-frame window and are left out";
+  auto unseen = [&](const char* kind, const std::vector<std::string>& names, const std::vector<int>& kept,
+                    const std::vector<int>& longest) {
+    std::string list;
+    for (size_t k = 0; k < names.size(); ++k)
+      if (kept[k] == 0 && longest[k] > 0)
+        list += (list.empty() ? "" : ", ") + names[k] + " (longest clip " + std::to_string(longest[k]) + " frames)";
+    if (!list.empty()) m << "; " << kind << " never seen: " << list;
+  };
+  unseen("contents", info.content_labels, content_windows, content_longest);
+  unseen("styles", info.style_labels, style_windows, style_longest);
+  m << " (a shorter --window keeps them)";
+  return m.str();
 }
 
 }  // namespace mosyn::nn::training

@@ -17,15 +17,22 @@ struct SplitWindows {
   const std::vector<data::ClipRecord>* clips = nullptr;
   std::vector<data::WindowRef> windows;
   int window = 0;
+  bool padded = false;  // short clips included as padded windows (batches carry Batch::frames)
 };
 
-// Every window of `window` frames with hop 1 in the train split. Throws mosyn::Error when no
-// training clip is long enough.
-SplitWindows training_windows(const data::Dataset& dataset, int window);
+// Every window of `window` frames with hop 1 in the train split; with min_short_frames > 0 (the
+// family's TrainableModel::short_window_min_frames) also one padded window per shorter clip of
+// at least that many frames. Throws mosyn::Error when no training clip gives a window.
+SplitWindows training_windows(const data::Dataset& dataset, int window, int min_short_frames = 0);
 
 // The fixed validation subset: at most max_windows windows (hop window / 2) spread evenly over
 // the val split, in order. Empty when the split has no long-enough clip or max_windows <= 0.
-SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows);
+SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames = 0);
+
+// "" when every training clip gives a window; otherwise a warning that says how many clips (and
+// what share of the frames) are left out for being shorter than `window` frames, and which
+// content and style labels get no window at all (with the shorter window that would keep them).
+std::string left_out_warning(const data::Dataset& dataset, int window, int min_short_frames);
 
 // Cuts batches from raw clips and standardises them with the dataset statistics. Near-constant
 // pose dimensions (data::DatasetStats::pose_constant) carry unit Gaussian noise instead of their

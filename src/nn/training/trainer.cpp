@@ -249,8 +249,10 @@ void Trainer::build_model(const nlohmann::json& model_config) {
 void Trainer::prepare_data() {
   const int window = opts_.window > 0 ? opts_.window : dataset_.info().window_frames;
   if (window < 2) throw Error("train: window must be at least 2 frames (set window)");
-  train_ = training::training_windows(dataset_, window);
-  val_ = training::validation_windows(dataset_, window, opts_.val_windows);
+  const int min_short = model_->short_window_min_frames();
+  train_ = training::training_windows(dataset_, window, min_short);
+  val_ = training::validation_windows(dataset_, window, opts_.val_windows, min_short);
+  if (const std::string w = training::left_out_warning(dataset_, window, min_short); !w.empty()) message(w);
   maker_ = std::make_unique<training::BatchMaker>(dataset_, context_.pose_dim, context_.control_dim, device_);
   pick_ = std::uniform_int_distribution<size_t>(0, train_.windows.size() - 1);
   chosen_.resize(opts_.batch);

@@ -163,6 +163,33 @@ TEST(HvrnnModel, ShapesAndMaskingForAnOddLength) {
   EXPECT_LT(hvrnn::rot6d_validity(r6).abs().max().item<double>(), 1e-4);
 }
 
+// A clip shorter than the training window comes padded (its last frame repeated) with its length
+// in Batch::frames: every term equals the loss of the unpadded clip (same words, same noise).
+TEST(HvrnnModel, ShortClipsPaddedToTheWindowScoreAsThemselves) {
+  torch::manual_seed(1);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny()), rotations_context());
+  EXPECT_EQ(m.short_window_min_frames(), 3);  // one word
+  m.eval();
+  Batch x = rotation_batch(3, 7);
+  torch::manual_seed(2);
+  const LossTerms a = m.loss(x);
+  Batch padded = x;
+  padded.pose = torch::cat({x.pose, x.pose.narrow(1, 6, 1).expand({3, 5, -1})}, 1);  // 12 frames
+  padded.control = torch::cat({x.control, x.control.narrow(1, 6, 1).expand({3, 5, -1})}, 1);
+  padded.frames = torch::full({3}, 7, torch::kInt64);
+  torch::manual_seed(2);
+  const LossTerms b = m.loss(padded);
+  for (const char* key : {"loss", "recon", "kl", "validity", "geodesic"})
+    EXPECT_NEAR(a.terms.at(key).item<double>(), b.terms.at(key).item<double>(), 1e-5) << key;
+  // Full-length rows (frames = T) score as without Batch::frames.
+  padded.frames = torch::full({3}, 12, torch::kInt64);
+  torch::manual_seed(2);
+  const LossTerms full = m.loss(padded);
+  padded.frames = torch::Tensor();
+  torch::manual_seed(2);
+  EXPECT_NEAR(full.terms.at("loss").item<double>(), m.loss(padded).terms.at("loss").item<double>(), 1e-6);
+}
+
 TEST(HvrnnModel, ATinyModelLearnsSyntheticMotion) {
   torch::manual_seed(4);
   auto ctx = labelled_small_context();
