@@ -24,7 +24,7 @@ struct Batch {
   torch::Tensor style;    // [B] int64, -1 = none (may be undefined: all none)
   // [B] int64, valid frames of each window, in 1..T (may be undefined: all T). Only families whose
   // short_window_min_frames() > 0 get windows with fewer: frames past it repeat the last valid one.
-  torch::Tensor frames;
+  torch::Tensor frames = {};
 };
 
 // Named scalar tensors returned by TrainableModel::loss. terms["loss"] is the total that the
