@@ -103,56 +103,62 @@ nn::LoadedRun load_classifier(const EvalOptions& o) {
   return cls;
 }
 
-ClassifierInputs::ClassifierInputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info)
-    : classifier_(classifier),
-      info_(info),
-      same_features_(data::layout_to_json(classifier.dataset.layout) == data::layout_to_json(info.layout)) {}
-
-void ClassifierInputs::add(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
-                           int content_id, int style_id) {
-  std::vector<float> p, c;
-  if (same_features_) {
-    p = pose;
-    c = control;
-  } else {
-    const int frames = static_cast<int>(control.size()) / info_.layout.control_dim;
-    data::encode_clip_for_dataset(classifier_.dataset, data::decode_features(info_, pose.data(), control.data(), frames),
-                                  name, &p, &c);
-  }
-  poses.push_back(std::move(p));
-  controls.push_back(std::move(c));
-  content.push_back(content_id);
-  style.push_back(style_id);
-}
-
 int training_window(const nn::LoadedRun& run) {
   const auto& train = run.config.contains("train") ? run.config["train"] : nlohmann::json::object();
   const int window = train.contains("window") ? io::json_get<int>(train["window"]) : 0;
   return window > 0 ? window : run.dataset.window_frames;
 }
 
+ClassifierInputs::ClassifierInputs(const nn::LoadedRun& classifier, const data::DatasetInfo& info)
+    : classifier_(classifier),
+      info_(info),
+      same_features_(data::layout_to_json(classifier.dataset.layout) == data::layout_to_json(info.layout)),
+      window_(training_window(classifier)) {}
+
+void ClassifierInputs::to_classifier_features(const std::vector<float>& pose, const std::vector<float>& control,
+                                              const std::string& name, std::vector<float>* p,
+                                              std::vector<float>* c) const {
+  if (same_features_) {
+    *p = pose;
+    *c = control;
+    return;
+  }
+  const int frames = static_cast<int>(control.size()) / info_.layout.control_dim;
+  data::encode_clip_for_dataset(classifier_.dataset, data::decode_features(info_, pose.data(), control.data(), frames),
+                                name, p, c);
+}
+
+void ClassifierInputs::push(std::vector<float> p, std::vector<float> c, int content_id, int style_id) {
+  poses.push_back(std::move(p));
+  controls.push_back(std::move(c));
+  content.push_back(content_id);
+  style.push_back(style_id);
+}
+
+void ClassifierInputs::add(const std::vector<float>& pose, const std::vector<float>& control, const std::string& name,
+                           int content_id, int style_id) {
+  std::vector<float> p, c;
+  to_classifier_features(pose, control, name, &p, &c);
+  push(std::move(p), std::move(c), content_id, style_id);
+}
+
 int ClassifierInputs::add_in_windows(const std::vector<float>& pose, const std::vector<float>& control,
                                      const std::string& name, int content_id, int style_id) {
-  add(pose, control, name, content_id, style_id);  // in the classifier's features, then cut
-  const int window = training_window(classifier_);
-  const int hop = std::max(1, window / 2);  // as the trainer's validation windows
-  const int d = classifier_.context.pose_dim, c = classifier_.context.control_dim;
-  const int frames = static_cast<int>(poses.back().size()) / d;
-  if (window <= 0 || frames <= window) return 1;
-  std::vector<float> whole_pose = std::move(poses.back()), whole_control = std::move(controls.back());
-  poses.pop_back();
-  controls.pop_back();
-  content.pop_back();
-  style.pop_back();
-  std::vector<int> starts;
-  for (int from = 0; from + window <= frames; from += hop) starts.push_back(from);
-  if (starts.back() + window < frames) starts.push_back(frames - window);
-  for (int from : starts) {
-    poses.push_back(rows_of(whole_pose, from, from + window, d));
-    controls.push_back(whole_control.empty() ? std::vector<float>{} : rows_of(whole_control, from, from + window, c));
-    content.push_back(content_id);
-    style.push_back(style_id);
+  std::vector<float> p, c;
+  to_classifier_features(pose, control, name, &p, &c);
+  const int d = classifier_.context.pose_dim, cd = classifier_.context.control_dim;
+  const int frames = static_cast<int>(p.size()) / d;
+  if (window_ <= 0 || frames <= window_) {
+    push(std::move(p), std::move(c), content_id, style_id);
+    return 1;
   }
+  const int hop = std::max(1, window_ / 2);  // as the trainer's validation windows
+  std::vector<int> starts;
+  for (int from = 0; from + window_ <= frames; from += hop) starts.push_back(from);
+  if (starts.back() + window_ < frames) starts.push_back(frames - window_);
+  for (int from : starts)
+    push(rows_of(p, from, from + window_, d), c.empty() ? std::vector<float>{} : rows_of(c, from, from + window_, cd),
+         content_id, style_id);
   return static_cast<int>(starts.size());
 }
 

@@ -120,9 +120,15 @@ class ClassifierInputs {
   std::vector<int> content, style;                  // the classifier's label ids, -1 = none
 
  private:
+  // A motion of info's layout in the classifier's features (unchanged when they are the same).
+  void to_classifier_features(const std::vector<float>& pose, const std::vector<float>& control,
+                              const std::string& name, std::vector<float>* p, std::vector<float>* c) const;
+  void push(std::vector<float> p, std::vector<float> c, int content_id, int style_id);
+
   const nn::LoadedRun& classifier_;
   const data::DatasetInfo& info_;
   bool same_features_;
+  int window_;  // training_window(classifier_), read once
 };
 
 // Frames of the windows a run was trained on: its config's "train"."window", else its dataset's.
