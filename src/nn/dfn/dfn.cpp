@@ -23,6 +23,10 @@ DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
 // ---------------------------------------------------------------------------------------------
 // Stages
 
+namespace {
+constexpr const char* kStageNames[] = {"autoencoder", "future", "dynamics"};
+}  // namespace
+
 std::vector<TrainingStage> DfnImpl::training_stages(const TrainStageDefaults& defaults) const {
   std::vector<int> steps = options_.stage_steps;
   if (steps.empty()) {
@@ -33,13 +37,13 @@ std::vector<TrainingStage> DfnImpl::training_stages(const TrainStageDefaults& de
     const int b = std::max(1, static_cast<int>(std::lround(n * f[1] / sum)));
     steps = {a, b, std::max(1, n - a - b)};
   }
-  const char* names[] = {"autoencoder", "future", "dynamics"};
   const std::vector<std::vector<std::string>> trained = {{"ae"}, {"future"}, {"dyn"}};
   const std::vector<std::vector<std::string>> frozen = {{}, {"ae"}, {"ae", "future"}};
   std::vector<TrainingStage> stages;
   for (int i = 0; i < 3; ++i) {
+    if (steps[i] == 0) continue;  // only absolute stage_steps can be 0: a stage already trained
     TrainingStage s;
-    s.name = names[i];
+    s.name = kStageNames[i];
     s.steps = steps[i];
     s.trained = trained[i];
     s.frozen = frozen[i];
@@ -51,6 +55,15 @@ std::vector<TrainingStage> DfnImpl::training_stages(const TrainStageDefaults& de
     stages.push_back(s);
   }
   return stages;
+}
+
+void DfnImpl::begin_stage(int /*index*/, const TrainingStage& stage) {
+  for (int i = 0; i < 3; ++i)
+    if (stage.name == kStageNames[i]) {
+      stage_ = i;
+      return;
+    }
+  throw Error("dfn: unknown training stage '" + stage.name + "'");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -196,7 +209,11 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   const double per = 1.0 / static_cast<double>(l);
   auto nz = (nll_z * per).mean(), nm = (nll_m * per).mean(), ks = (kl_s * per).mean(), kf = (kl_f * per).mean();
   LossTerms out;
-  out.terms["loss"] = nz + options_.m_weight * nm + options_.kl_weight * (ks + kf) + options_.td_weight * (td_kl + td_nll);
+  // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
+  const double free = options_.kl_free_nats;
+  auto ks_loss = free > 0 ? torch::clamp_min(ks, free) : ks, kf_loss = free > 0 ? torch::clamp_min(kf, free) : kf;
+  out.terms["loss"] =
+      nz + options_.m_weight * nm + options_.kl_weight * (ks_loss + kf_loss) + options_.td_weight * (td_kl + td_nll);
   out.terms["nll_z"] = nz.detach();
   out.terms["z_mse"] = (z_se * per).mean();
   out.terms["nll_m"] = nm.detach();

@@ -64,10 +64,17 @@ struct DfnOptions {
   // 190 of a 200-frame window made this stage 10x slower per step than the others.
   int future_starts = 32;
   double kl_weight = 1.0;        // KL terms of Eq. 15
+  // Free bits (Kingma et al. 2016): each of the s and f KL terms, averaged per frame over the
+  // batch, enters the loss as max(KL, kl_free_nats), so below that budget nothing pushes a
+  // posterior onto its prior. 0 = the paper's plain KL. Against the collapse of s (KL 0.0015 nats
+  // per frame after 1,480 steps in session 5), which leaves all diversity to f.
+  double kl_free_nats = 0.0;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when
-  // stage_steps is not empty, its three absolute step counts.
+  // stage_steps is not empty, its three absolute step counts; a 0 there skips that stage (to
+  // continue the dynamics stage of a run whose autoencoder and future network are trained,
+  // `--init-from` with stage_steps [0, 0, N]).
   std::vector<double> stage_fractions = {0.3, 0.2, 0.5};
   std::vector<int> stage_steps = {};
 
@@ -172,7 +179,8 @@ class DfnImpl : public MotionModel {
   // Three stages: "autoencoder" (trains ae), "future" (trains future, ae frozen), "dynamics"
   // (trains dyn, ae and future frozen).
   std::vector<TrainingStage> training_stages(const TrainStageDefaults& defaults) const override;
-  void begin_stage(int index, const TrainingStage& stage) override { stage_ = index; }
+  // The stage's index among the three (by name: skipped stages shift the trainer's index).
+  void begin_stage(int index, const TrainingStage& stage) override;
   int stage() const { return stage_; }
 
   // The current stage's objective (per frame, standardised space); before any stage (-1) the sum

@@ -23,8 +23,12 @@ std::string stage_problem(const DfnOptions& o) {
   for (double f : o.stage_fractions)
     if (!(f > 0)) return "stage_fractions entries must be > 0";
   if (!o.stage_steps.empty() && o.stage_steps.size() != 3) return "stage_steps must be empty or have 3 entries";
-  for (int s : o.stage_steps)
-    if (s < 1) return "stage_steps entries must be >= 1";
+  int total = 0;
+  for (int s : o.stage_steps) {
+    if (s < 0) return "stage_steps entries must be >= 0 (0 skips a stage whose weights are already trained)";
+    total += s;
+  }
+  if (!o.stage_steps.empty() && total < 1) return "stage_steps must train at least one stage";
   return "";
 }
 
@@ -59,10 +63,13 @@ const OptionFields<DfnOptions>& dfn_fields() {
           .field("future_starts", &O::future_starts, "future stage: random start frames per window (0 = all)",
                  at_least(0))
           .field("kl_weight", &O::kl_weight, "weight of the KL terms", at_least(0.0))
+          .field("kl_free_nats", &O::kl_free_nats, "free nats per frame for each of the s and f KL terms",
+                 at_least(0.0))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")
-          .field("stage_steps", &O::stage_steps, "absolute steps per stage (overrides the fractions)")
+          .field("stage_steps", &O::stage_steps,
+                 "absolute steps per stage (overrides the fractions; 0 skips a stage)")
           .rule(stage_problem);
   return fields;
 }

@@ -194,8 +194,9 @@ TEST(Dfn, EachStageLossFalls) {
   b.pose = torch::randn({4, 12, c.pose_dim}) * 0.3;
   b.control = torch::randn({4, 12, 3}) * 0.3;
   const std::vector<std::string> prefixes = {"ae.", "future.", "dyn."};
+  const auto stages = m->training_stages(TrainStageDefaults{});
   for (int s = 0; s < 3; ++s) {
-    m->begin_stage(s, TrainingStage{});
+    m->begin_stage(s, stages[s]);
     std::vector<torch::Tensor> params;
     for (const auto& kv : m->named_parameters())
       if (kv.key().rfind(prefixes[s], 0) == 0) params.push_back(kv.value());
@@ -356,6 +357,52 @@ TEST(Dfn, TheThreeStagesTrainAndFreezeWhatTheyShould) {
   EXPECT_TRUE(same_under(after_future, end, "ae."));
   EXPECT_TRUE(same_under(after_future, end, "future."));
   fs::remove_all(dir);
+}
+
+TEST(Dfn, ZeroStageStepsSkipTrainedStages) {
+  auto config = tiny();
+  config["stage_steps"] = {0, 0, 7};
+  auto m = make(nn::testing::small_context(), config);
+  const auto stages = m->training_stages(TrainStageDefaults{});
+  ASSERT_EQ(stages.size(), 1u);
+  EXPECT_EQ(stages[0].name, "dynamics");
+  EXPECT_EQ(stages[0].steps, 7);
+  m->begin_stage(0, stages[0]);  // the trainer's index 0 is the family's third stage
+  EXPECT_EQ(m->stage(), 2);
+  TrainingStage unknown;
+  unknown.name = "warm-up";
+  EXPECT_THROW(m->begin_stage(0, unknown), Error);
+  config["stage_steps"] = {0, 0, 0};
+  EXPECT_THROW(DfnOptions::from_json(config), Error);
+  config["stage_steps"] = {3, -1, 2};
+  EXPECT_THROW(DfnOptions::from_json(config), Error);
+}
+
+TEST(Dfn, FreeNatsFloorEachKlTermInTheLoss) {
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  Batch b;
+  torch::manual_seed(4);
+  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
+  b.control = torch::randn({3, 14, 3}) * 0.3;
+  for (double free : {0.0, 0.05, 1e3}) {
+    auto config = tiny();
+    config["kl_free_nats"] = free;
+    config["kl_weight"] = 0.7;
+    auto m = make(c, config);
+    m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
+    torch::manual_seed(6);
+    const LossTerms out = m->loss(b);
+    auto term = [&](const char* k) { return out.terms.at(k).item<double>(); };
+    const double expected = term("nll_z") + term("nll_m") +
+                            0.7 * (std::max(term("kl_s"), free) + std::max(term("kl_f"), free)) + term("td_kl") +
+                            term("td_nll");
+    EXPECT_NEAR(out.loss().item<double>(), expected, 1e-4 * std::max(1.0, std::abs(expected))) << "free " << free;
+    if (free == 1e3) {
+      // Both terms are under this budget, so the floor, not the KL, is what entered the loss.
+      EXPECT_LT(term("kl_s"), free);
+      EXPECT_LT(term("kl_f"), free);
+    }
+  }
 }
 
 TEST(Dfn, InterruptedInTheSecondStageResumesExactly) {
