@@ -148,8 +148,10 @@ TEST(Dfn, ShapesOfCodesWindowsLossesAndSamples) {
   ASSERT_EQ(w.sizes(), (std::vector<int64_t>{3, 9, 3, 6}));
   EXPECT_TRUE(torch::equal(w[1][4], z[1].narrow(0, 5, 3)));  // frames t+1..t+H of t = 4
   EXPECT_EQ(m->future->embed(w.reshape({-1, 3, 6})).sizes(), (std::vector<int64_t>{27, 4}));
-  for (int s = -1; s < 3; ++s) {
-    m->begin_stage(s, TrainingStage{});
+  EXPECT_TRUE(std::isfinite(m->loss(b).loss().item<double>()));  // before any stage: all three
+  const auto stages = m->training_stages(TrainStageDefaults{});
+  for (int s = 0; s < 3; ++s) {
+    m->begin_stage(s, stages[s]);
     EXPECT_TRUE(std::isfinite(m->loss(b).loss().item<double>())) << s;
   }
   EXPECT_THROW(m->loss(nn::testing::noisy_sinusoid_batch(2, 3, 6)), Error);  // T <= H
