@@ -417,7 +417,7 @@ MarkerFitResult fit_markers(const Skeleton& skeleton, const MarkerSet& markers, 
     }
   }
   double sq = 0.0;
-  const auto pos = [&] {
+  auto pos = [&] {
     std::vector<Eigen::Quaterniond> rot;
     std::vector<Eigen::Vector3d> p;
     frame_fk(skeleton, *motion, t, &rot, &p);
@@ -427,6 +427,7 @@ MarkerFitResult fit_markers(const Skeleton& skeleton, const MarkerSet& markers, 
   }();
   for (int i = 0; i < markers.num_markers(); ++i) sq += (pos[i] - targets[i]).squaredNorm();
   result.rms_error = std::sqrt(sq / std::max(1, markers.num_markers()));
+  result.fitted = pos;
   return result;
 }
 

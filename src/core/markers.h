@@ -91,6 +91,7 @@ struct MarkerFitOptions {
 struct MarkerFitResult {
   int iterations = 0;
   double rms_error = 0.0;  // root mean squared marker distance after the fit, skeleton units
+  std::vector<Eigen::Vector3d> fitted;  // [M] the markers of the fitted frame (world, skeleton units)
 };
 
 // Fits frame t of `motion` (local rotations of every joint and the root's translation; other

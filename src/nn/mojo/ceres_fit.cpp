@@ -120,12 +120,12 @@ MarkerFitResult fit_markers_ceres(const Skeleton& skeleton, const MarkerSet& mar
   motion->translation(t, root) = Eigen::Vector3d(blocks[0][0], blocks[0][1], blocks[0][2]);
 
   const WorldPoses world = forward_kinematics(skeleton, *motion);
-  const auto fitted = marker_positions(markers, world, t);
-  double sum = 0.0;
-  for (size_t i = 0; i < fitted.size(); ++i) sum += (fitted[i] - targets[i]).squaredNorm();
   MarkerFitResult result;
+  result.fitted = marker_positions(markers, world, t);
+  double sum = 0.0;
+  for (size_t i = 0; i < result.fitted.size(); ++i) sum += (result.fitted[i] - targets[i]).squaredNorm();
   result.iterations = static_cast<int>(summary.iterations.size()) - 1;
-  result.rms_error = std::sqrt(sum / std::max<size_t>(1, fitted.size()));
+  result.rms_error = std::sqrt(sum / std::max<size_t>(1, result.fitted.size()));
   return result;
 }
 

@@ -23,9 +23,9 @@ struct CeresFitOptions {
 // translations stay) so that its markers match targets [M] (world, skeleton units), starting from
 // the frame's current values. Parameters: a rotation increment per joint, q_j = q_j,start exp(d_j)
 // (angle-axis d_j in the joint's local frame), and the root's translation. Residuals: marker
-// differences in metres [3M] and sqrt(pose_prior) d_j [3J]. Returns the iterations taken and the
-// RMS marker distance after the fit (skeleton units). Throws mosyn::Error when targets do not have
-// one entry per marker or are not finite.
+// differences in metres [3M] and sqrt(pose_prior) d_j [3J]. Returns the iterations taken, the
+// RMS marker distance after the fit (skeleton units) and the fitted markers. Throws mosyn::Error
+// when targets do not have one entry per marker or are not finite.
 MarkerFitResult fit_markers_ceres(const Skeleton& skeleton, const MarkerSet& markers,
                                   const std::vector<Eigen::Vector3d>& targets, Motion* motion, int t,
                                   const CeresFitOptions& options = {});

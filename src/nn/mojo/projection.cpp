@@ -46,9 +46,9 @@ void MarkerProjector::project(float* frames, int stride) {
       fit.pose_prior = 0.0;  // nothing to stay near yet
       started_[r] = true;
     }
-    rms_[r] = fit_markers_ceres(skeleton_, markers_, targets, &bodies_[r], 0, fit).rms_error * skeleton_.meters_per_unit;
-    const WorldPoses world = forward_kinematics(skeleton_, bodies_[r]);
-    const auto fitted = marker_positions(markers_, world, 0);
+    const MarkerFitResult result = fit_markers_ceres(skeleton_, markers_, targets, &bodies_[r], 0, fit);
+    rms_[r] = result.rms_error * skeleton_.meters_per_unit;
+    const auto& fitted = result.fitted;  // the fit's own forward kinematics, not repeated here
     for (int i = 0; i < m; ++i)
       for (int k = 0; k < 3; ++k) {
         const int d = 3 * i + k;

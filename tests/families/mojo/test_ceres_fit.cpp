@@ -87,6 +87,13 @@ TEST(MojoCeresFit, AgreesWithTheEigenFitFromADisturbedStart) {
     EXPECT_LT(max_joint_distance(s, by_ceres, by_eigen), 0.05) << "seed " << seed;
     EXPECT_LT(a.rms_error, 0.5) << "seed " << seed;
     EXPECT_NEAR(a.rms_error, b.rms_error, 0.05) << "seed " << seed;
+    // Each returns the markers of the body it fitted, as forward kinematics places them.
+    for (const auto& [fit, body] : {std::pair{&a, &by_ceres}, std::pair{&b, &by_eigen}}) {
+      const auto expected = marker_positions(s, set, *body);
+      ASSERT_EQ(fit->fitted.size(), expected.size());
+      for (size_t i = 0; i < expected.size(); ++i)
+        EXPECT_LT((fit->fitted[i] - expected[i]).norm(), 1e-9) << "seed " << seed << " marker " << i;
+    }
   }
 }
 
