@@ -202,6 +202,38 @@ TEST(MoGlow, LogLikelihoodIncludesGaussianConstant) {
   EXPECT_NEAR(terms.terms.at("nll_dim").item<double>(), -ll.mean().item<double>() / 4, 1e-10);
 }
 
+// A clip shorter than the training window comes padded (its last frame repeated) with its length
+// in Batch::frames: the loss is the mean over every row's valid predicted frames, each scored as
+// in the unpadded clip (the flow is causal).
+TEST(MoGlow, ShortClipsPaddedToTheWindowScoreAsThemselves) {
+  auto model = small_model(4, 2, 2, 1);
+  EXPECT_EQ(model->short_window_min_frames(), 3);  // tau + 1
+  torch::manual_seed(3);
+  auto pose = torch::randn({3, 12, 4}, torch::kFloat64), control = torch::randn({3, 12, 3}, torch::kFloat64);
+  const std::vector<int64_t> frames = {7, 12, 9};
+  std::vector<torch::Tensor> valid_ll;
+  Batch padded{pose.clone(), control.clone(), {}, {}};
+  for (int r = 0; r < 3; ++r) {
+    const int64_t n = frames[r];
+    valid_ll.push_back(model->log_likelihood(pose.narrow(0, r, 1).narrow(1, 0, n), control.narrow(0, r, 1).narrow(1, 0, n))
+                           .reshape({-1}));
+    for (int64_t t = n; t < 12; ++t) {  // padding as the trainer makes it: the last frame repeated
+      padded.pose[r][t] = pose[r][n - 1];
+      padded.control[r][t] = control[r][n - 1];
+    }
+  }
+  padded.frames = torch::tensor(frames, torch::kInt64);
+  const double expected = -torch::cat(valid_ll).mean().item<double>();
+  EXPECT_NEAR(model->loss(padded).terms.at("nll_frame").item<double>(), expected, 1e-9);
+  // Full-length rows score as without Batch::frames.
+  Batch full{pose, control, {}, {}};
+  const double unmasked = model->loss(full).terms.at("nll_frame").item<double>();
+  full.frames = torch::full({3}, 12, torch::kInt64);
+  EXPECT_NEAR(model->loss(full).terms.at("nll_frame").item<double>(), unmasked, 1e-9);
+  auto off = MoGlowOptions::from_json({{"short_clips", false}}, small_context(4));
+  EXPECT_FALSE(off.short_clips);
+}
+
 TEST(MoGlow, NllFallsOnNoisySinusoids) {
   torch::manual_seed(11);
   const int64_t b = 16, t = 24, d = 4;

@@ -63,6 +63,7 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field_checked_on_read("lookahead", &O::lookahead, "look-ahead offsets (frames) of the path; empty = causal",
                                  entries_at_least(1))
           .written_if([](const O& o) { return !o.lookahead.empty(); })
+          .field("short_clips", &O::short_clips, "train on clips shorter than the window (padding masked)")
           .rule(lookahead_problem);
   return fields;
 }
@@ -335,12 +336,23 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
   auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels);
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
+  auto logdet = e.logdet;
+  if (batch.frames.defined()) {
+    // Predicted frame i is window frame tau + i; a short clip's padding starts at its frames.
+    const int64_t predicted = ll.size(1);
+    auto first_padded = batch.frames.to(ll.device()).to(torch::kInt64).unsqueeze(1) - options_.tau;
+    auto valid = (torch::arange(predicted, torch::dtype(torch::kInt64).device(ll.device())).unsqueeze(0) < first_padded)
+                     .to(ll.dtype());
+    const auto count = valid.sum().clamp_min(1.0);
+    ll = ll * valid * (valid.numel() / count);  // the mean below then runs over valid frames only
+    logdet = logdet * valid * (valid.numel() / count);
+  }
   auto nll_frame = -ll.mean();
   LossTerms out;
   out.terms["loss"] = nll_frame / d;
   out.terms["nll_frame"] = nll_frame.detach();
   out.terms["nll_dim"] = (nll_frame / d).detach();
-  out.terms["logdet_frame"] = e.logdet.mean().detach();
+  out.terms["logdet_frame"] = logdet.mean().detach();
   return out;
 }
 

@@ -43,6 +43,10 @@ struct MoGlowOptions {
   // turn per frame; past the end of the control, its last frame repeats). Empty = causal (the
   // paper). A model with look-ahead samples offline only (no frame-by-frame streaming).
   std::vector<int> lookahead;
+  // Clips shorter than the training window join training as one window each, padded with their
+  // last frame, the padding masked out of the loss (exact: the flow is causal, so padding after
+  // a frame cannot change its likelihood). false = left out, as runs before this option.
+  bool short_clips = true;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -147,8 +151,11 @@ class MoGlowImpl : public MotionModel {
   // "loss" = nll_dim (mean over frames, batch and dims; scale-free across D and T),
   // "nll_frame" = nats per predicted frame (Gaussian constant included), "nll_dim" = per dim,
   // "logdet_frame" = mean log|det| per frame. Data dropout applies when is_training().
-  // The first call in training mode initialises every ActNorm from this batch.
+  // The first call in training mode initialises every ActNorm from this batch. Frames past a
+  // window's Batch::frames (a short clip's padding) are left out of every term.
   LossTerms loss(const Batch& batch) override;
+  // With short_clips: clips of more than tau frames (at least one predicted frame).
+  int short_window_min_frames() const override { return options_.short_clips ? options_.tau + 1 : 0; }
 
   // Takes control, labels (when trained with them) and prefixes (as the pose history); streams
   // unless it looks ahead; warms up for 1 s from the mean pose.
