@@ -227,6 +227,120 @@ std::vector<int> training_budget(const std::vector<Clip>& clips, const std::vect
   return keep;
 }
 
+// Throws, naming the file, when a clip's hierarchy or frame rate differs from the first's.
+void check_same_topology_and_rate(const std::vector<Clip>& clips, const std::vector<Item>& items) {
+  const Skeleton& first = clips[0].skeleton;
+  for (size_t i = 1; i < clips.size(); ++i) {
+    const std::string diff = topology_difference(first, clips[i].skeleton);
+    if (!diff.empty())
+      throw Error(items[i].path + ": skeleton differs from " + items[0].path + ": " + diff +
+                  " (all files of a dataset must share one hierarchy; drop differing joints with joint patterns)");
+    if (std::abs(clips[i].motion.fps - clips[0].motion.fps) > 1e-3 * clips[0].motion.fps)
+      throw Error(items[i].path + ": frame rate " + std::to_string(clips[i].motion.fps) + " differs from " +
+                  std::to_string(clips[0].motion.fps) + " in " + items[0].path + "; set a target fps");
+  }
+}
+
+// The dataset's skeleton: the clips' mean offsets (every bone length must stay near the mean)
+// and the scale given or guessed, which every clip then takes.
+Skeleton mean_skeleton(std::vector<Clip>* clips, const std::vector<Item>& items, double meters_per_unit) {
+  const double n = static_cast<double>(clips->size());
+  Skeleton skeleton = (*clips)[0].skeleton;
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Clip& c : *clips) sum += c.skeleton.offsets[j];
+    skeleton.offsets[j] = sum / n;
+  }
+  for (size_t e = 0; e < skeleton.end_sites.size(); ++e) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Clip& c : *clips) sum += c.skeleton.end_sites[e].offset;
+    skeleton.end_sites[e].offset = sum / n;
+  }
+  for (size_t i = 0; i < clips->size(); ++i) {
+    const std::string diff = bone_length_difference(skeleton, (*clips)[i].skeleton);
+    if (!diff.empty()) throw Error(items[i].path + ": " + diff);
+  }
+  skeleton.meters_per_unit = meters_per_unit > 0 ? meters_per_unit : guess_meters_per_unit(skeleton);
+  for (Clip& c : *clips) c.skeleton.meters_per_unit = skeleton.meters_per_unit;
+  return skeleton;
+}
+
+// What dataset.json says of the options and the first pass (everything but the file split).
+DatasetInfo describe_dataset(const PrepareOptions& o, DatasetInfo info, const Skeleton& skeleton, double fps,
+                             const std::vector<std::string>& raw_joint_names) {
+  info.version = 1;
+  info.fps = fps;
+  info.skeleton = skeleton;
+  info.layout = make_layout(skeleton, o.form, 0, estimate_forward_in_root(skeleton), o.root_smoothing_s);
+  info.window_frames = o.window_frames;
+  info.window_hop = o.window_hop;
+  info.source_dirs = o.input_dirs;
+  info.source_dir = join(o.input_dirs, ";");
+  info.augment_mirror = o.mirror;
+  info.augment_reverse = o.reverse;
+  info.tpose = to_string(o.tpose);
+  info.drop_joint_patterns = o.drop_joint_patterns;
+  info.keep_joint_patterns = o.keep_joint_patterns;
+  info.source_joint_names = raw_joint_names;
+  info.max_train_seconds = o.max_train_seconds;
+  return info;
+}
+
+// Held-out files by a seeded Fisher-Yates shuffle (own index mapping, so the split is the same on
+// every standard library): the first round(val_fraction n) shuffled files, at least one when the
+// fraction is positive, never all.
+std::vector<bool> validation_files(int n, double val_fraction, uint64_t seed) {
+  std::vector<int> order(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) order[i] = i;
+  std::mt19937_64 rng(seed);
+  for (int i = n - 1; i > 0; --i) std::swap(order[i], order[static_cast<size_t>(rng() % static_cast<uint64_t>(i + 1))]);
+  int num_val = static_cast<int>(std::lround(val_fraction * n));
+  if (val_fraction > 0 && num_val == 0 && n >= 2) num_val = 1;
+  num_val = std::min(num_val, n - 1);
+  std::vector<bool> is_val(static_cast<size_t>(n), false);
+  for (int k = 0; k < num_val; ++k) is_val[order[k]] = true;
+  return is_val;
+}
+
+// The feature records of one file's clip cut to keep_frames: the original, then its augmented
+// copies (mirrored with mirrored labels, reversed) next to it. Errors name the file.
+std::vector<ClipRecord> encode_with_augmentation(const PrepareOptions& o, const DatasetInfo& info, const MirrorPlan& plan,
+                                                 const Item& item, Clip clip, int keep_frames) {
+  if (keep_frames < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames);
+  auto mirrored_id = [](int id, const std::vector<std::string>& vocabulary) {
+    if (id < 0) return id;
+    const int other = index_of(vocabulary, mirrored_label(vocabulary[id]));
+    return other >= 0 ? other : id;
+  };
+  std::vector<ClipRecord> records;
+  auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
+    ClipRecord r;
+    r.source = item.source;
+    r.content = mirrored ? mirrored_id(item.content, info.content_labels) : item.content;
+    r.style = mirrored ? mirrored_id(item.style, info.style_labels) : item.style;
+    r.mirrored = mirrored;
+    r.reversed = reversed;
+    r.num_frames = motion.num_frames;
+    encode(clip.skeleton, motion, info.layout, &r.pose, &r.control);
+    records.push_back(std::move(r));
+  };
+  try {
+    add(clip.motion, false, false);
+    Motion mirrored;
+    if (o.mirror) {
+      mirrored = mirror(clip.skeleton, clip.motion, plan);
+      add(mirrored, true, false);
+    }
+    if (o.reverse) {
+      add(reverse_frames(clip.motion), false, true);
+      if (o.mirror) add(reverse_frames(mirrored), true, true);
+    }
+  } catch (const Error& e) {
+    throw Error(item.path + ": " + e.what());
+  }
+  return records;
+}
+
 }  // namespace
 
 DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallback& progress) {
@@ -250,7 +364,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
     progress(p);
   };
 
-  // 1. Parse and clean every file.
+  // 1. Parse and clean every file; 2. one hierarchy and frame rate; 3. the mean skeleton.
   std::vector<Clip> clips(static_cast<size_t>(n));
   std::vector<std::string> raw_joint_names;
   parallel_for(n, o.threads, [&](int i) {
@@ -260,66 +374,13 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
     clips[i] = clean_clip(clip, items[i].path, o.drop_joint_patterns, o.keep_joint_patterns, o.tpose, o.fps);
     report("parse", items[i].source);
   });
+  check_same_topology_and_rate(clips, items);
+  const Skeleton skeleton = mean_skeleton(&clips, items, o.meters_per_unit);
+  info = describe_dataset(o, std::move(info), skeleton, clips[0].motion.fps, raw_joint_names);
 
-  // 2. Same topology everywhere; one frame rate.
-  const Skeleton& first = clips[0].skeleton;
-  for (int i = 1; i < n; ++i) {
-    const std::string diff = topology_difference(first, clips[i].skeleton);
-    if (!diff.empty())
-      throw Error(items[i].path + ": skeleton differs from " + items[0].path + ": " + diff +
-                  " (all files of a dataset must share one hierarchy; drop differing joints with joint patterns)");
-    if (std::abs(clips[i].motion.fps - clips[0].motion.fps) > 1e-3 * clips[0].motion.fps)
-      throw Error(items[i].path + ": frame rate " + std::to_string(clips[i].motion.fps) + " differs from " +
-                  std::to_string(clips[0].motion.fps) + " in " + items[0].path + "; set a target fps");
-  }
-
-  // 3. Dataset skeleton: mean offsets; bone lengths must stay near the mean.
-  Skeleton skeleton = first;
-  for (int j = 0; j < skeleton.num_joints(); ++j) {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const Clip& c : clips) sum += c.skeleton.offsets[j];
-    skeleton.offsets[j] = sum / n;
-  }
-  for (size_t e = 0; e < skeleton.end_sites.size(); ++e) {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const Clip& c : clips) sum += c.skeleton.end_sites[e].offset;
-    skeleton.end_sites[e].offset = sum / n;
-  }
-  for (int i = 0; i < n; ++i) {
-    const std::string diff = bone_length_difference(skeleton, clips[i].skeleton);
-    if (!diff.empty()) throw Error(items[i].path + ": " + diff);
-  }
-  skeleton.meters_per_unit = o.meters_per_unit > 0 ? o.meters_per_unit : guess_meters_per_unit(skeleton);
-  for (Clip& c : clips) c.skeleton.meters_per_unit = skeleton.meters_per_unit;
-
-  info.version = 1;
-  info.fps = clips[0].motion.fps;
-  info.skeleton = skeleton;
-  info.layout = make_layout(skeleton, o.form, 0, estimate_forward_in_root(skeleton), o.root_smoothing_s);
-  info.window_frames = o.window_frames;
-  info.window_hop = o.window_hop;
-  info.source_dirs = o.input_dirs;
-  info.source_dir = join(o.input_dirs, ";");
-  info.augment_mirror = o.mirror;
-  info.augment_reverse = o.reverse;
-  info.tpose = to_string(o.tpose);
-  info.drop_joint_patterns = o.drop_joint_patterns;
-  info.keep_joint_patterns = o.keep_joint_patterns;
-  info.source_joint_names = raw_joint_names;
-
-  // 4. Split by file: a seeded Fisher-Yates shuffle (own index mapping, so the split is the same
-  // on every standard library); the first num_val shuffled files are held out.
-  std::vector<int> order(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) order[i] = i;
-  std::mt19937_64 rng(o.seed);
-  for (int i = n - 1; i > 0; --i) std::swap(order[i], order[static_cast<size_t>(rng() % static_cast<uint64_t>(i + 1))]);
-  int num_val = static_cast<int>(std::lround(o.val_fraction * n));
-  if (o.val_fraction > 0 && num_val == 0 && n >= 2) num_val = 1;
-  num_val = std::min(num_val, n - 1);
-  std::vector<bool> is_val(static_cast<size_t>(n), false);
-  for (int k = 0; k < num_val; ++k) is_val[order[k]] = true;
+  // 4. Split by file, then the training budget.
+  const std::vector<bool> is_val = validation_files(n, o.val_fraction, o.seed);
   const std::vector<int> keep_frames = training_budget(clips, is_val, o.max_train_seconds);
-  info.max_train_seconds = o.max_train_seconds;
   for (int i = 0; i < n; ++i)
     if (keep_frames[i] > 0) (is_val[i] ? info.val_files : info.train_files).push_back(items[i].source);
   if (info.train_files.empty())
@@ -328,43 +389,11 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
-  auto mirrored_id = [](int id, const std::vector<std::string>& vocabulary) {
-    if (id < 0) return id;
-    const int other = index_of(vocabulary, mirrored_label(vocabulary[id]));
-    return other >= 0 ? other : id;
-  };
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {
     if (keep_frames[i] == 0) return;
-    Clip clip = std::move(clips[i]);
-    if (keep_frames[i] < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames[i]);
-    auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
-      ClipRecord r;
-      r.source = items[i].source;
-      r.content = mirrored ? mirrored_id(items[i].content, info.content_labels) : items[i].content;
-      r.style = mirrored ? mirrored_id(items[i].style, info.style_labels) : items[i].style;
-      r.mirrored = mirrored;
-      r.reversed = reversed;
-      r.num_frames = motion.num_frames;
-      encode(clip.skeleton, motion, info.layout, &r.pose, &r.control);
-      records[i].push_back(std::move(r));
-    };
-    try {
-      add(clip.motion, false, false);
-      Motion mirrored;
-      if (o.mirror) {
-        mirrored = mirror(clip.skeleton, clip.motion, plan);
-        add(mirrored, true, false);
-      }
-      if (o.reverse) {
-        add(reverse_frames(clip.motion), false, true);
-        if (o.mirror) add(reverse_frames(mirrored), true, true);
-      }
-    } catch (const Error& e) {
-      throw Error(items[i].path + ": " + e.what());
-    }
-    clips[i] = Clip();
+    records[i] = encode_with_augmentation(o, info, plan, items[i], std::move(clips[i]), keep_frames[i]);
     report("encode", items[i].source);
   });
 
