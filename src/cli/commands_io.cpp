@@ -56,8 +56,8 @@ struct ConvertOptions {
   bool control = false;
 };
 
-void run_convert(const ConvertOptions& o) {
-  const std::string ext = extension_of(o.output);
+// Throws UsageError when the output's extension and the flags do not go together.
+void check_convert_options(const ConvertOptions& o, const std::string& ext) {
   const bool gltf = ext == "glb" || ext == "gltf";
   if (ext != "bvh" && ext != "npy" && ext != "csv" && ext != "json" && !gltf)
     throw UsageError("output '" + o.output + "' must end in .bvh, .glb, .gltf, .npy, .csv or .json");
@@ -70,84 +70,102 @@ void run_convert(const ConvertOptions& o) {
     throw UsageError(".csv outputs hold world joint positions (--positions) or the root control (--control)");
   if ((ext == "bvh" || gltf) && o.positions) throw UsageError("--positions does not apply to ." + ext + " output");
   if (o.fps < 0) throw UsageError("--fps must be positive");
+}
 
+void write_control_of(const ConvertOptions& o, const Clip& clip) {
+  const std::vector<float> control = data::control_from_clip(clip, clip.motion.fps);
+  std::vector<Eigen::Vector3d> rows(control.size() / 3);
+  for (size_t t = 0; t < rows.size(); ++t) rows[t] = {control[3 * t], control[3 * t + 1], control[3 * t + 2]};
+  io::write_control_csv(o.output, rows);
+  std::fprintf(stderr, "wrote %s: %zu frames of dx, dz (m) and dtheta (rad) at %g fps\n", o.output.c_str(), rows.size(),
+               clip.motion.fps);
+}
+
+void write_gltf_of(const ConvertOptions& o, const Clip& clip) {
+  io::GltfOptions gltf_options;
+  gltf_options.meters_per_unit = resolve_meters_per_unit(clip.skeleton);
+  const std::string name = std::filesystem::path(o.input).stem().string();
+  io::write_gltf(o.output, clip.skeleton, {{name, clip.motion}}, gltf_options);
+  std::fprintf(stderr, "wrote %s: %d joints, %d frames at %g fps, %.4g m per unit, Y up\n", o.output.c_str(),
+               clip.skeleton.num_joints(), clip.motion.num_frames, clip.motion.fps, gltf_options.meters_per_unit);
+}
+
+// The CMU 41-marker layout rigidly attached to the bones (core/markers.h), as MOJO predicts.
+void write_markers_of(const ConvertOptions& o, const Clip& clip, const std::string& ext, double scale) {
+  Skeleton placed = clip.skeleton;
+  placed.meters_per_unit = resolve_meters_per_unit(clip.skeleton);  // marker offsets are in metres
+  const MarkerSet set = cmu41_markers(placed);
+  std::vector<Eigen::Vector3d> at = marker_positions(placed, set, clip.motion);
+  for (auto& p : at) p *= scale;
+  if (ext == "npy")
+    io::write_positions_npy(o.output, clip.motion.num_frames, set.num_markers(), at);
+  else
+    io::write_positions_csv(o.output, cmu41_marker_names(), clip.motion.num_frames, at);
+  std::fprintf(stderr, "wrote %s: %d frames x %d CMU markers, positions in %s\n", o.output.c_str(),
+               clip.motion.num_frames, set.num_markers(), o.metres ? "metres" : "the file's units");
+}
+
+// World joint positions as JSON: skeleton (joints, parents, offsets) and positions [T][J][3].
+nlohmann::json positions_json(const ConvertOptions& o, const Clip& clip, const std::vector<Eigen::Vector3d>& positions,
+                              double scale) {
+  const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
+  nlohmann::json j;
+  j["source"] = o.input;
+  j["fps"] = clip.motion.fps;
+  j["num_frames"] = num_frames;
+  j["units"] = o.metres ? "metres" : "file units";
+  j["joints"] = clip.skeleton.joint_names;
+  j["parents"] = clip.skeleton.parents;
+  nlohmann::json offsets = nlohmann::json::array(), frames = nlohmann::json::array();
+  for (const auto& v : clip.skeleton.offsets) offsets.push_back({v.x() * scale, v.y() * scale, v.z() * scale});
+  j["offsets"] = offsets;
+  for (int t = 0; t < num_frames; ++t) {
+    nlohmann::json frame = nlohmann::json::array();
+    for (int k = 0; k < num_joints; ++k) {
+      const auto& p = positions[static_cast<size_t>(t) * num_joints + k];
+      frame.push_back({p.x(), p.y(), p.z()});
+    }
+    frames.push_back(std::move(frame));
+  }
+  j["positions"] = frames;  // [T][J][3]
+  return j;
+}
+
+void write_positions_of(const ConvertOptions& o, const Clip& clip, const std::string& ext, double scale) {
+  const WorldPoses poses = forward_kinematics(clip.skeleton, clip.motion);
+  const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
+  std::vector<Eigen::Vector3d> positions = poses.positions;
+  for (auto& p : positions) p *= scale;
+  if (ext == "npy")
+    io::write_positions_npy(o.output, num_frames, num_joints, positions);
+  else if (ext == "csv")
+    io::write_positions_csv(o.output, clip.skeleton.joint_names, num_frames, positions);
+  else
+    io::write_json(o.output, positions_json(o, clip, positions, scale), -1);
+  std::fprintf(stderr, "wrote %s: %d frames x %d joints, positions in %s\n", o.output.c_str(), num_frames, num_joints,
+               o.metres ? "metres" : "the file's units");
+}
+
+void run_convert(const ConvertOptions& o) {
+  const std::string ext = extension_of(o.output);
+  check_convert_options(o, ext);
   const io::BvhFile bvh = io::read_bvh(o.input);
   Clip clip = io::to_clip(bvh);
   const bool reshaped = !o.joints.empty() || !o.drop_joints.empty();
   if (reshaped) clip = data::subset_by_patterns(clip, split_commas(o.drop_joints), split_commas(o.joints));
   if (o.fps > 0) clip.motion = data::resample(clip.motion, o.fps);
 
-  if (o.control) {
-    const std::vector<float> control = data::control_from_clip(clip, clip.motion.fps);
-    std::vector<Eigen::Vector3d> rows(control.size() / 3);
-    for (size_t t = 0; t < rows.size(); ++t) rows[t] = {control[3 * t], control[3 * t + 1], control[3 * t + 2]};
-    io::write_control_csv(o.output, rows);
-    std::fprintf(stderr, "wrote %s: %zu frames of dx, dz (m) and dtheta (rad) at %g fps\n", o.output.c_str(), rows.size(),
-                 clip.motion.fps);
-    return;
-  }
-  if (ext == "bvh") {
-    // Keep the source's channel layout when the joints are the same.
-    io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));
-    return;
-  }
-  if (gltf) {
-    io::GltfOptions gltf_options;
-    gltf_options.meters_per_unit = resolve_meters_per_unit(clip.skeleton);
-    const std::string name = std::filesystem::path(o.input).stem().string();
-    io::write_gltf(o.output, clip.skeleton, {{name, clip.motion}}, gltf_options);
-    std::fprintf(stderr, "wrote %s: %d joints, %d frames at %g fps, %.4g m per unit, Y up\n", o.output.c_str(),
-                 clip.skeleton.num_joints(), clip.motion.num_frames, clip.motion.fps, gltf_options.meters_per_unit);
-    return;
-  }
-  const double scale = o.metres ? resolve_meters_per_unit(clip.skeleton) : 1.0;
-  if (o.markers) {
-    // The CMU 41-marker layout rigidly attached to the bones (core/markers.h), as MOJO predicts.
-    Skeleton placed = clip.skeleton;
-    placed.meters_per_unit = resolve_meters_per_unit(clip.skeleton);  // marker offsets are in metres
-    const MarkerSet set = cmu41_markers(placed);
-    std::vector<Eigen::Vector3d> at = marker_positions(placed, set, clip.motion);
-    for (auto& p : at) p *= scale;
-    if (ext == "npy")
-      io::write_positions_npy(o.output, clip.motion.num_frames, set.num_markers(), at);
-    else
-      io::write_positions_csv(o.output, cmu41_marker_names(), clip.motion.num_frames, at);
-    std::fprintf(stderr, "wrote %s: %d frames x %d CMU markers, positions in %s\n", o.output.c_str(),
-                 clip.motion.num_frames, set.num_markers(), o.metres ? "metres" : "the file's units");
-    return;
-  }
-  const WorldPoses poses = forward_kinematics(clip.skeleton, clip.motion);
-  const int num_frames = clip.motion.num_frames, num_joints = clip.skeleton.num_joints();
-  std::vector<Eigen::Vector3d> positions = poses.positions;
-  for (auto& p : positions) p *= scale;
-  if (ext == "npy") {
-    io::write_positions_npy(o.output, num_frames, num_joints, positions);
-  } else if (ext == "csv") {
-    io::write_positions_csv(o.output, clip.skeleton.joint_names, num_frames, positions);
-  } else {
-    nlohmann::json j;
-    j["source"] = o.input;
-    j["fps"] = clip.motion.fps;
-    j["num_frames"] = num_frames;
-    j["units"] = o.metres ? "metres" : "file units";
-    j["joints"] = clip.skeleton.joint_names;
-    j["parents"] = clip.skeleton.parents;
-    nlohmann::json offsets = nlohmann::json::array(), frames = nlohmann::json::array();
-    for (const auto& v : clip.skeleton.offsets) offsets.push_back({v.x() * scale, v.y() * scale, v.z() * scale});
-    j["offsets"] = offsets;
-    for (int t = 0; t < num_frames; ++t) {
-      nlohmann::json frame = nlohmann::json::array();
-      for (int k = 0; k < num_joints; ++k) {
-        const auto& p = positions[static_cast<size_t>(t) * num_joints + k];
-        frame.push_back({p.x(), p.y(), p.z()});
-      }
-      frames.push_back(std::move(frame));
-    }
-    j["positions"] = frames;  // [T][J][3]
-    io::write_json(o.output, j, -1);
-  }
-  std::fprintf(stderr, "wrote %s: %d frames x %d joints, positions in %s\n", o.output.c_str(), num_frames, num_joints,
-               o.metres ? "metres" : "the file's units");
+  auto scale = [&] { return o.metres ? resolve_meters_per_unit(clip.skeleton) : 1.0; };  // only where used
+  if (o.control)
+    write_control_of(o, clip);
+  else if (ext == "bvh")
+    io::write_bvh(o.output, io::from_clip(clip, reshaped ? nullptr : &bvh));  // the source's channels when unchanged
+  else if (ext == "glb" || ext == "gltf")
+    write_gltf_of(o, clip);
+  else if (o.markers)
+    write_markers_of(o, clip, ext, scale());
+  else
+    write_positions_of(o, clip, ext, scale());
 }
 
 }  // namespace

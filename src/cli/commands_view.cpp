@@ -58,7 +58,8 @@ std::vector<eval::MotionPositions> positions_of(const std::vector<std::string>& 
   return out;
 }
 
-void run_metrics(const MetricsArgs& a) {
+// The set-metric options of the command line; throws UsageError on values out of range.
+eval::SetMetricsOptions set_metrics_options(const MetricsArgs& a) {
   if (a.units_m < 0) throw UsageError("--units-m must be positive");
   if (!(a.v_tol_step_cmps > 0) || !(a.v_tol_max_cmps >= a.v_tol_step_cmps))
     throw UsageError("--v-tol-step and --v-tol-max must be positive, step <= max");
@@ -76,7 +77,89 @@ void run_metrics(const MetricsArgs& a) {
   o.skating.both_feet = !a.skate_any_foot;
   o.footsteps.min_step_duration_s = a.min_step_s;
   o.foot_joints = feet;
+  return o;
+}
 
+// One Markdown row per metric, with the reference's column when there is one.
+void print_metrics_table(const std::vector<eval::MetricValue>& rows, const std::vector<eval::MetricValue>& ref_rows,
+                         double fse) {
+  const bool with_ref = !ref_rows.empty();
+  std::printf("| metric | files |%s\n", with_ref ? " reference |" : "");
+  std::printf("|---|---|%s\n", with_ref ? "---|" : "");
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::printf("| %s | %s |", rows[i].label.c_str(), eval::format_metric_value(rows[i].value).c_str());
+    if (with_ref) std::printf(" %s |", eval::format_metric_value(ref_rows[i].value).c_str());
+    std::printf("\n");
+  }
+  if (with_ref)
+    std::printf("| FSE: spectral entropy minus reference's (nats) | %s | 0 |\n", eval::format_metric_value(fse).c_str());
+}
+
+// DFN section 6.3: distance to the per-frame mean pose over time ({fps, mean_m, std_m}), or null
+// for fewer than two motions or motions of different skeletons.
+nlohmann::json spread_curve(const std::vector<eval::MotionPositions>& set) {
+  if (set.size() < 2) return nullptr;
+  int shortest = set[0].num_frames;
+  for (const auto& m : set) {
+    if (m.num_joints != set[0].num_joints) return nullptr;
+    shortest = std::min(shortest, m.num_frames);
+  }
+  if (shortest < 1) return nullptr;
+  std::vector<Eigen::MatrixXd> seqs;
+  for (const auto& m : set) seqs.push_back(m.sequence().topRows(shortest));
+  const eval::MeanPoseDistance d = eval::mean_pose_distance(seqs);
+  return {{"fps", set[0].fps},
+          {"mean_m", std::vector<double>(d.mean_m.data(), d.mean_m.data() + d.mean_m.size())},
+          {"std_m", std::vector<double>(d.std_m.data(), d.std_m.data() + d.std_m.size())}};
+}
+
+// The footstep curve's f_est of a set of motions.
+std::vector<int> footstep_counts(const std::vector<eval::MotionPositions>& motions,
+                                    const eval::SetMetricsOptions& o) {
+  std::vector<eval::FootJoints> feet;
+  for (const auto& m : motions) feet.push_back(eval::find_foot_joints(m, o.foot_joints));
+  return eval::analyse_footsteps(motions, feet, o.footsteps).f_est;
+}
+
+// Everything `mosyn metrics --json` writes: metrics, footstep curves, spread curves, options.
+nlohmann::json metrics_json(const MetricsArgs& a, const eval::SetMetricsOptions& o,
+                            const std::vector<eval::MotionPositions>& motions, const std::vector<eval::MetricValue>& rows,
+                            const std::vector<eval::MotionPositions>& ref_motions,
+                            const std::vector<eval::MetricValue>& ref_rows, double fse) {
+  nlohmann::json j;
+  j["files"] = a.files;
+  j["metrics"] = eval::metrics_to_json(rows);
+  std::vector<eval::FootJoints> f;
+  for (const auto& m : motions) f.push_back(eval::find_foot_joints(m, o.foot_joints));
+  const auto curve = eval::analyse_footsteps(motions, f, o.footsteps);
+  nlohmann::json steps;
+  std::vector<double> v_cmps;
+  for (double v : curve.v_tol_mps) v_cmps.push_back(std::round(v * 1e6) / 1e4);
+  steps["v_tol_cmps"] = v_cmps;
+  steps["f_est"] = curve.f_est;
+  const bool with_ref = !ref_rows.empty();
+  if (with_ref) {
+    j["reference"] = a.reference;
+    j["reference_metrics"] = eval::metrics_to_json(ref_rows);
+    steps["reference_f_est"] = footstep_counts(ref_motions, o);
+    j["fse_difference"] = std::isfinite(fse) ? nlohmann::json(fse) : nlohmann::json(nullptr);
+  }
+  j["footstep_curve"] = steps;
+  j["mean_pose_distance_curve"] = spread_curve(motions);
+  if (with_ref) j["reference_mean_pose_distance_curve"] = spread_curve(ref_motions);
+  j["options"] = {{"v_tol_step_cmps", a.v_tol_step_cmps},
+                  {"v_tol_max_cmps", a.v_tol_max_cmps},
+                  {"toes", a.toes},
+                  {"skate_height_m", a.skating.height_threshold_m},
+                  {"skate_speed_mps", a.skating.speed_threshold_mps},
+                  {"skate_both_feet", !a.skate_any_foot},
+                  {"min_step_s", a.min_step_s},
+                  {"foot_joints", o.foot_joints}};
+  return j;
+}
+
+void run_metrics(const MetricsArgs& a) {
+  const eval::SetMetricsOptions o = set_metrics_options(a);
   const auto motions = positions_of(a.files, a.units_m);
   const auto rows = eval::set_metrics(motions, o);
   std::vector<eval::MetricValue> ref_rows;
@@ -90,66 +173,9 @@ void run_metrics(const MetricsArgs& a) {
     for (const auto& m : ref_motions) ref_seqs.push_back(m.sequence());
     fse = eval::spectral_entropy_difference(seqs, ref_seqs);
   }
-
-  const bool with_ref = !ref_rows.empty();
-  std::printf("| metric | files |%s\n", with_ref ? " reference |" : "");
-  std::printf("|---|---|%s\n", with_ref ? "---|" : "");
-  for (size_t i = 0; i < rows.size(); ++i) {
-    std::printf("| %s | %s |", rows[i].label.c_str(), eval::format_metric_value(rows[i].value).c_str());
-    if (with_ref) std::printf(" %s |", eval::format_metric_value(ref_rows[i].value).c_str());
-    std::printf("\n");
-  }
-  if (with_ref)
-    std::printf("| FSE: spectral entropy minus reference's (nats) | %s | 0 |\n", eval::format_metric_value(fse).c_str());
-
+  print_metrics_table(rows, ref_rows, fse);
   if (!a.json_out.empty()) {
-    nlohmann::json j;
-    j["files"] = a.files;
-    j["metrics"] = eval::metrics_to_json(rows);
-    std::vector<eval::FootJoints> f;
-    for (const auto& m : motions) f.push_back(eval::find_foot_joints(m, feet));
-    const auto curve = eval::analyse_footsteps(motions, f, o.footsteps);
-    nlohmann::json steps;
-    std::vector<double> v_cmps;
-    for (double v : curve.v_tol_mps) v_cmps.push_back(std::round(v * 1e6) / 1e4);
-    steps["v_tol_cmps"] = v_cmps;
-    steps["f_est"] = curve.f_est;
-    if (with_ref) {
-      j["reference"] = a.reference;
-      j["reference_metrics"] = eval::metrics_to_json(ref_rows);
-      std::vector<eval::FootJoints> rf;
-      for (const auto& m : ref_motions) rf.push_back(eval::find_foot_joints(m, feet));
-      steps["reference_f_est"] = eval::analyse_footsteps(ref_motions, rf, o.footsteps).f_est;
-      j["fse_difference"] = std::isfinite(fse) ? nlohmann::json(fse) : nlohmann::json(nullptr);
-    }
-    j["footstep_curve"] = steps;
-    // DFN section 6.3: distance to the per-frame mean pose over time, for the files and the reference.
-    auto spread_curve = [](const std::vector<eval::MotionPositions>& set) -> nlohmann::json {
-      if (set.size() < 2) return nullptr;
-      int shortest = set[0].num_frames;
-      for (const auto& m : set) {
-        if (m.num_joints != set[0].num_joints) return nullptr;
-        shortest = std::min(shortest, m.num_frames);
-      }
-      if (shortest < 1) return nullptr;
-      std::vector<Eigen::MatrixXd> seqs;
-      for (const auto& m : set) seqs.push_back(m.sequence().topRows(shortest));
-      const eval::MeanPoseDistance d = eval::mean_pose_distance(seqs);
-      return {{"fps", set[0].fps},
-               {"mean_m", std::vector<double>(d.mean_m.data(), d.mean_m.data() + d.mean_m.size())},
-               {"std_m", std::vector<double>(d.std_m.data(), d.std_m.data() + d.std_m.size())}};
-    };
-    j["mean_pose_distance_curve"] = spread_curve(motions);
-    if (with_ref) j["reference_mean_pose_distance_curve"] = spread_curve(ref_motions);
-    j["options"] = {{"v_tol_step_cmps", a.v_tol_step_cmps},
-                    {"v_tol_max_cmps", a.v_tol_max_cmps},
-                    {"toes", a.toes},
-                    {"skate_height_m", a.skating.height_threshold_m},
-                    {"skate_speed_mps", a.skating.speed_threshold_mps},
-                    {"skate_both_feet", !a.skate_any_foot},
-                    {"min_step_s", a.min_step_s},
-                    {"foot_joints", feet}};
-    io::write_json(a.json_out, j);
+    io::write_json(a.json_out, metrics_json(a, o, motions, rows, ref_motions, ref_rows, fse));
     std::fprintf(stderr, "wrote %s\n", a.json_out.c_str());
   }
 }
