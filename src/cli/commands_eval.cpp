@@ -78,9 +78,9 @@ void run_eval(EvalArgs a) {
   if (!(o.long_horizon_s >= 0) || !(o.long_horizon_window_s > 0))
     throw UsageError("--long-horizon must not be negative and --long-horizon-window must be positive");
   if (!(o.prefix_generation_s >= 0) || o.prefix_generation_frames < 1 || o.prefix_generation_clips < 1 ||
-      !(o.transition_window_s > 0))
+      !(o.transition_window_s >= 0))
     throw UsageError("--prefix-generation must not be negative; --prefix-frames and --prefix-clips must be >= 1; "
-                     "--transition-window must be positive");
+                     "--transition-window must not be negative");
   if (o.label_samples < 0 || o.label_samples > 100000 || !(o.label_seconds >= 0) || o.label_seconds > 3600)
     throw UsageError("--label-samples must be in [0, 100000] and --label-seconds in [0, 3600]");
   if (o.label_samples > 0 && a.classifier.empty())
@@ -242,7 +242,8 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_option("--prefix-clips", a->options.prefix_generation_clips,
                   "prefix generation: held-out clips whose starts are continued (default 4)");
   cmd->add_option("--transition-window", a->options.transition_window_s,
-                  "prefix generation with --classifier: seconds per recognised window (default 2)");
+                  "prefix generation with --classifier: seconds per recognised window (default: the "
+                  "classifier's training window)");
   cmd->add_option("--plot", a->plot, "write the prefix generation's curves (DFN Fig. 9) as a PNG");
   cmd->add_option("--foot-joints", a->foot_joints,
                   "comma-separated left,right heel joints [,left,right toe] (default: found by name)");

@@ -58,7 +58,7 @@ struct EvalOptions {
   // windows of long_horizon_window_s against the real clips of the prefix's content: rows
   // "prefix_generation.*" and the curves "prefix_generation.mean_pose_distance.c<k>" (Fig. 9).
   // With a classifier, each sample's content is also recognised in windows of transition_window_s
-  // seconds and the changes counted. 0 = off.
+  // seconds (0 = the classifier's training window) and the changes counted. 0 = off.
   // Generation by label alone (Ghorbani et al. 2020, Table 2), for families conditioned on labels
   // and with classifier_dir: label_samples samples of label_seconds (0 = the dataset's window) for
   // every content x style combination of the run, no prefix: rows "label_generation.*". 0 = off.
@@ -67,7 +67,7 @@ struct EvalOptions {
   double prefix_generation_s = 0;
   int prefix_generation_frames = 20;
   int prefix_generation_clips = 4;
-  double transition_window_s = 2.0;
+  double transition_window_s = 0;  // 0 = the classifier's training window
   int reference_clips = 200;     // training clips (evenly spread) behind Fig. 9's training band
   // When not empty, only these protocols run (of those the options enable and the run's traits
   // allow; names as Protocol::name(), eval/protocol.h), e.g. {"prediction", "body_validity"} for

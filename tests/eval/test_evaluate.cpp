@@ -327,10 +327,19 @@ TEST_F(EvaluateTest, PrefixGenerationRowsAndFig9Curves) {
   e.prefix_generation_frames = 20;
   e.prefix_generation_clips = 2;
   e.long_horizon_window_s = 2.0;
-  e.transition_window_s = 1.0;
-  e.classifier_dir = (*root_ / "classifier").string();
+  e.classifier_dir = (*root_ / "classifier").string();  // transitions in its training window (default)
   e.only_protocols = {"prefix_generation"};
   const auto r = eval::evaluate((*root_ / "run").string(), *dataset_, e);
+  {
+    // The default is the classifier's training window, 30 frames = 1 s: the same counts as 1 s given.
+    eval::EvalOptions given = e;
+    given.transition_window_s = 1.0;
+    const auto g = eval::evaluate((*root_ / "run").string(), *dataset_, given);
+    for (const char* key : {"prefix_generation.content_changes_per_min", "prefix_generation.contents_per_sample"}) {
+      EXPECT_DOUBLE_EQ(g.row(key).model, r.row(key).model) << key;
+      EXPECT_DOUBLE_EQ(g.row(key).real, r.row(key).real) << key;
+    }
+  }
   EXPECT_EQ(r.protocols, (std::vector<std::string>{"prefix_generation"}));
   for (const char* key : {"prefix_generation.body_speed_mps.last", "prefix_generation.root_speed_mps.last",
                           "prefix_generation.root_height_m", "prefix_generation.content_changes_per_min",

@@ -142,6 +142,13 @@ std::pair<double, double> transition_counts(const std::vector<int>& ids, double 
   return {minutes > 0 ? changes / minutes : kNaN, static_cast<double>(std::set<int>(ids.begin(), ids.end()).size())};
 }
 
+// Frames (at fps) per recognised window: transition_window_s, or by default (0) the classifier's
+// own training window, so each window is scored as the classifier learned to score.
+int transition_frames(const EvalOptions& o, const nn::LoadedRun& cls, double fps) {
+  const double seconds = o.transition_window_s > 0 ? o.transition_window_s : detail::training_window(cls) / cls.dataset.fps;
+  return std::max(2, static_cast<int>(std::lround(seconds * fps)));
+}
+
 // The per-sample measures, collected over every prefix.
 struct Collected {
   std::vector<double> body_last, root_last, body_real, root_real, body_within, root_within, height_in, height,
@@ -203,7 +210,7 @@ void PrefixGenerationProtocol::score_prefix(EvalContext& ctx, size_t i, const st
     all.real_height.push_back(ref.height_frames > 0 ? ref.height_sum / ref.height_frames : kNaN);
     poses.push_back(heading_frame_pose(run, m, whole.control));
     if (cls) {
-      const int tw = std::max(2, static_cast<int>(std::lround(o.transition_window_s * run.dataset.fps)));
+      const int tw = transition_frames(o, *cls, run.dataset.fps);
       const auto counts = transition_counts(
           recognised_contents(ctx, *cls, futures[k].pose, futures[k].control, tw, rec.source + " continued"),
           tw / run.dataset.fps);
@@ -230,8 +237,8 @@ void PrefixGenerationProtocol::run(EvalContext& ctx, EvalResult& result) const {
   const EvalOptions& o = ctx.options();
   if (o.prefix_generation_frames < 1 || o.prefix_generation_clips < 1)
     throw Error("evaluate: prefix_generation_frames and prefix_generation_clips must be >= 1");
-  if (!(o.transition_window_s > 0) || !(o.long_horizon_window_s > 0))
-    throw Error("evaluate: transition_window_s and long_horizon_window_s must be > 0");
+  if (!(o.transition_window_s >= 0) || !(o.long_horizon_window_s > 0))
+    throw Error("evaluate: transition_window_s must be >= 0 and long_horizon_window_s > 0");
   std::vector<size_t> long_enough;
   for (size_t i = 0; i < ctx.num_clips(); ++i)
     if (ctx.clip(i).num_frames >= o.prefix_generation_frames) long_enough.push_back(i);
@@ -274,7 +281,7 @@ void PrefixGenerationProtocol::run(EvalContext& ctx, EvalResult& result) const {
   }
   if (cls) {
     std::vector<double> real_changes, real_contents;
-    const int tw = std::max(2, static_cast<int>(std::lround(o.transition_window_s * ctx.run().dataset.fps)));
+    const int tw = transition_frames(o, *cls, ctx.run().dataset.fps);
     for (size_t i = 0; i < ctx.num_clips(); ++i) {
       if (ctx.clip(i).num_frames < 2 * tw) continue;
       const auto counts = transition_counts(
