@@ -10,7 +10,9 @@
 
 #include "core/error.h"
 #include "nn/label_features.h"
+#include "core/trajectory.h"
 #include "nn/moglow/moglow.h"
+#include "nn/moglow/pose_transport.h"
 #include "nn_test_util.h"
 
 using namespace mosyn::nn;
@@ -352,40 +354,90 @@ TEST(MoGlow, ConfigPresetsAndErrors) {
 // reference flow: running the generated frames, after a prefix that warms the LSTMs up, through
 // the normalising direction (encode) recovers exactly the noise each character drew from its own
 // generator, times the temperature (two LSTM layers, labels, double precision).
+// Also for the residual parameterisation: the stream adds the transported previous frame that
+// encode() subtracts, with features standardised by non-trivial statistics.
 TEST(MoGlow, StreamInvertsTheReferenceFlowWithPerCharacterNoise) {
-  torch::manual_seed(1);
-  nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"lstm_layers", 2}, {"tau", 2}, {"dropout", 0.0},
-                        {"labels", true}};
-  auto ctx = small_context(6);
-  ctx.num_content = 2;
-  ctx.num_style = 3;
-  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  model->to(torch::kFloat64);
-  randomise(*model);
-  model->eval();
-  const int64_t b = 3, p = 5, t = 7, d = 6;
-  SampleRequest req;
-  req.prefix_pose = torch::randn({b, p, d}, torch::kFloat64);
-  req.prefix_control = torch::randn({b, p, 3}, torch::kFloat64);
-  req.content = torch::tensor({0, -1, 1}, torch::kInt64);
-  req.style = torch::tensor({2, 0, -1}, torch::kInt64);
-  req.seed = 11;
-  req.seeds = {11, 5, 900};
-  req.temperature = 0.8;
-  auto control = torch::randn({b, t, 3}, torch::kFloat64);
-  auto stream = model->begin_stream(req);
-  std::vector<torch::Tensor> frames;
-  for (int64_t f = 0; f < t; ++f) frames.push_back(model->step_stream(*stream, control.select(1, f)).pose);
-  auto pose = torch::cat({req.prefix_pose, torch::stack(frames, 1)}, 1);
-  auto ctrl = torch::cat({req.prefix_control, control}, 1);
-  auto labels = label_features(req.content, req.style, b, 2, 3, pose.options());
-  auto z = model->encode(pose, ctrl, {}, nullptr, false, labels).z.narrow(1, p - 2, t);  // frames p..p+t-1
-  for (int64_t k = 0; k < b; ++k) {
-    auto g = at::detail::createCPUGenerator(req.seeds[k]);
-    for (int64_t f = 0; f < t; ++f) {
-      auto noise = torch::randn({d}, g, torch::kFloat64) * req.temperature;
-      EXPECT_TRUE(torch::allclose(z[k][f], noise, 1e-9, 1e-9)) << "row " << k << " frame " << f << "\n"
-                                                                << z[k][f] << "\n" << noise;
+  for (bool residual : {false, true}) {
+    SCOPED_TRACE(residual ? "residual" : "plain");
+    torch::manual_seed(1);
+    nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"lstm_layers", 2}, {"tau", 2}, {"dropout", 0.0},
+                          {"labels", true}, {"residual", residual}};
+    auto ctx = small_context(6);
+    ctx.num_content = 2;
+    ctx.num_style = 3;
+    ctx.pose_form = mosyn::data::PoseForm::kPositions;
+    ctx.stats.pose_mean = {0.1f, 0.9f, -0.2f, 0.05f, 0.4f, 0.3f};
+    ctx.stats.pose_std = {0.3f, 0.1f, 0.25f, 0.2f, 0.3f, 0.15f};
+    ctx.stats.control_mean = {0.01f, 0.06f, 0.0f};
+    ctx.stats.control_std = {0.02f, 0.03f, 0.05f};
+    auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+    EXPECT_EQ(model->transport() != nullptr, residual);
+    model->to(torch::kFloat64);
+    randomise(*model);
+    model->eval();
+    const int64_t b = 3, p = 5, t = 7, d = 6;
+    SampleRequest req;
+    req.prefix_pose = torch::randn({b, p, d}, torch::kFloat64);
+    req.prefix_control = torch::randn({b, p, 3}, torch::kFloat64);
+    req.content = torch::tensor({0, -1, 1}, torch::kInt64);
+    req.style = torch::tensor({2, 0, -1}, torch::kInt64);
+    req.seed = 11;
+    req.seeds = {11, 5, 900};
+    req.temperature = 0.8;
+    auto control = torch::randn({b, t, 3}, torch::kFloat64);
+    auto stream = model->begin_stream(req);
+    std::vector<torch::Tensor> frames;
+    for (int64_t f = 0; f < t; ++f) frames.push_back(model->step_stream(*stream, control.select(1, f)).pose);
+    auto pose = torch::cat({req.prefix_pose, torch::stack(frames, 1)}, 1);
+    auto ctrl = torch::cat({req.prefix_control, control}, 1);
+    auto labels = label_features(req.content, req.style, b, 2, 3, pose.options());
+    auto z = model->encode(pose, ctrl, {}, nullptr, false, labels).z.narrow(1, p - 2, t);  // frames p..p+t-1
+    for (int64_t k = 0; k < b; ++k) {
+      auto g = at::detail::createCPUGenerator(req.seeds[k]);
+      for (int64_t f = 0; f < t; ++f) {
+        auto noise = torch::randn({d}, g, torch::kFloat64) * req.temperature;
+        EXPECT_TRUE(torch::allclose(z[k][f], noise, 1e-9, 1e-9)) << "row " << k << " frame " << f << "\n"
+                                                                  << z[k][f] << "\n" << noise;
+      }
     }
   }
+}
+
+// A point fixed in the world, seen from a root path that steps and turns, is where the transport
+// carries it (by hand through core/trajectory's integration), in standardised features; and the
+// residual needs joint positions.
+TEST(MoGlow, PoseTransportKeepsWorldFixedPointsInPlace) {
+  mosyn::Skeleton skeleton;  // no joints: Y up
+  ModelContext ctx = small_context(6);
+  ctx.pose_form = mosyn::data::PoseForm::kPositions;
+  ctx.stats.pose_mean = {0.1f, 0.9f, -0.2f, 0.05f, 0.4f, 0.3f};
+  ctx.stats.pose_std = {0.3f, 0.1f, 0.25f, 0.2f, 0.3f, 0.15f};
+  ctx.stats.control_mean = {0.01f, 0.06f, 0.0f};
+  ctx.stats.control_std = {0.02f, 0.03f, 0.05f};
+  const PoseTransport transport(ctx);
+  const std::vector<Eigen::Vector3d> world = {{1.0, 0.05, 2.0}, {-0.4, 1.2, 0.7}};  // metres
+  const double heading0 = 0.6;
+  mosyn::RootDelta step;
+  step.sideways = 0.03;
+  step.forward = 0.11;
+  step.turn_rad = -0.2;
+  skeleton.meters_per_unit = 1.0;
+  const auto ground = mosyn::integrate_root_deltas(skeleton, {mosyn::RootDelta{}, step}, {0.5, 0.0, -0.3}, heading0);
+  auto features = [&](int t) {  // the world points in frame t's root frame, standardised
+    std::vector<double> f;
+    const Eigen::Quaterniond h = mosyn::heading_rotation(skeleton, ground.headings_rad[t]);
+    for (const auto& w : world) {
+      const Eigen::Vector3d local = h.conjugate() * (w - ground.positions[t]);
+      for (int k = 0; k < 3; ++k) f.push_back((local[k] - ctx.stats.pose_mean[f.size()]) / ctx.stats.pose_std[f.size()]);
+    }
+    return torch::tensor(f, torch::kFloat64);
+  };
+  const auto& cs = ctx.stats;
+  const auto control = torch::tensor({(step.sideways - cs.control_mean[0]) / cs.control_std[0],
+                                      (step.forward - cs.control_mean[1]) / cs.control_std[1],
+                                      (step.turn_rad - cs.control_mean[2]) / cs.control_std[2]},
+                                     torch::kFloat64);
+  const auto moved = transport.apply(features(0).unsqueeze(0), control.unsqueeze(0)).squeeze(0);
+  EXPECT_TRUE(torch::allclose(moved, features(1), 1e-9, 1e-9)) << moved << "\n" << features(1);
+  EXPECT_THROW(PoseTransport(small_context(6)), mosyn::Error);  // rotations form
 }

@@ -64,6 +64,9 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
                                  entries_at_least(1))
           .written_if([](const O& o) { return !o.lookahead.empty(); })
           .field("short_clips", &O::short_clips, "train on clips shorter than the window (padding masked)")
+          .written_if([](const O& o) { return !o.short_clips; })
+          .field("residual", &O::residual, "the flow models each frame minus the transported previous one")
+          .written_if([](const O& o) { return o.residual; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -89,8 +92,8 @@ MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const Model
   return o;
 }
 
-// Labels and look-ahead are written only when on, so configs of runs made before they existed stay
-// byte-identical.
+// Labels, look-ahead and the residual are written only when on (short_clips only when off), so
+// configs of runs made before they existed stay byte-identical.
 nlohmann::json MoGlowOptions::to_json() const { return moglow_fields().write(*this); }
 
 // ---------------------------------------------------------------------------------------------
@@ -241,6 +244,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   lookahead_dim_ = c * static_cast<int>(options.lookahead.size());
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
+  if (options.residual) transport_ = PoseTransport(context);
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -298,7 +302,10 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
                 std::to_string(pose.size(1)));
   auto hist_pose = history_keep.defined() ? pose * history_keep.unsqueeze(-1).to(pose.dtype()) : pose;
   auto cond = conditioning(hist_pose, control, labels);
-  auto x = pose.narrow(1, tau, pose.size(1) - tau).transpose(0, 1);  // [T', B, D]
+  const int64_t n = pose.size(1) - tau;
+  auto x = pose.narrow(1, tau, n);
+  if (options_.residual) x = x - transport_.apply(pose.narrow(1, tau - 1, n), control.narrow(1, tau, n));
+  x = x.transpose(0, 1);  // [T', B, D]
   Encoded e;
   e.states.resize(steps.size());
   if (init_states) e.states = *init_states;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "nn/model.h"
+#include "nn/moglow/pose_transport.h"
 
 namespace mosyn::nn {
 
@@ -47,6 +48,14 @@ struct MoGlowOptions {
   // last frame, the padding masked out of the loss (exact: the flow is causal, so padding after
   // a frame cannot change its likelihood). false = left out, as runs before this option.
   bool short_clips = true;
+  // Residual parameterisation (positions form only; not in the paper): the flow models
+  // x_t - T(x_{t-1}, c_t), where T carries the previous frame's joints into frame t's root frame
+  // (pose_transport.h), instead of x_t itself. A shift by a function of the condition has unit
+  // Jacobian, so this is still the exact likelihood of x_t; but a planted foot becomes a residual
+  // of 0 instead of a copy of the previous frame minus the root's step that the coupling networks
+  // must learn. The transport always takes the true previous frame (data dropout still hides it
+  // from the conditioning).
+  bool residual = false;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -198,6 +207,8 @@ class MoGlowImpl : public MotionModel {
   // MoGlowOptions::lookahead); undefined without look-ahead.
   torch::Tensor lookahead_features(const torch::Tensor& control) const;
   double dropout() const { return dropout_; }
+  // The residual's transport (MoGlowOptions::residual); nullptr when the flow models x_t itself.
+  const PoseTransport* transport() const { return options_.residual ? &transport_ : nullptr; }
 
   std::vector<FlowStep> steps;
 
@@ -208,6 +219,7 @@ class MoGlowImpl : public MotionModel {
   int label_dim_ = 0;
   int lookahead_dim_ = 0;
   double dropout_ = 0.0;
+  PoseTransport transport_;  // with options_.residual
   // One generated frame: the stream's history, the frame's control [B, C] and its look-ahead
   // features [B, 3 K] (undefined without look-ahead).
   torch::Tensor next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead);
