@@ -403,6 +403,36 @@ TEST(MoGlow, StreamInvertsTheReferenceFlowWithPerCharacterNoise) {
   }
 }
 
+// history_noise perturbs what the model conditions on, never the frames it scores: an offset on
+// the last frame alone (scored, never conditioned on) changes nothing, one on earlier frames does.
+TEST(MoGlow, HistoryOffsetReachesOnlyTheConditioning) {
+  for (bool residual : {false, true}) {
+    SCOPED_TRACE(residual ? "residual" : "plain");
+    torch::manual_seed(1);
+    auto ctx = small_context(6);
+    ctx.pose_form = mosyn::data::PoseForm::kPositions;
+    nlohmann::json cfg = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.0}, {"residual", residual},
+                          {"history_noise", 0.1}};
+    auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+    model->to(torch::kFloat64);
+    randomise(*model);
+    model->eval();
+    auto pose = torch::randn({2, 6, 6}, torch::kFloat64), control = torch::randn({2, 6, 3}, torch::kFloat64);
+    const auto z = model->encode(pose, control).z;
+    auto last = torch::zeros_like(pose);
+    last.narrow(1, 5, 1).normal_();
+    EXPECT_TRUE(torch::allclose(model->encode(pose, control, {}, nullptr, false, {}, last).z, z, 0, 0));
+    auto earlier = torch::zeros_like(pose);
+    earlier.narrow(1, 3, 1).normal_();
+    const auto moved = model->encode(pose, control, {}, nullptr, false, {}, earlier).z;
+    EXPECT_TRUE(torch::allclose(moved.narrow(1, 0, 2), z.narrow(1, 0, 2), 0, 0));  // frames 2, 3: before it
+    EXPECT_FALSE(torch::allclose(moved.narrow(1, 2, 2), z.narrow(1, 2, 2)));       // frames 4, 5 saw it
+    // Evaluation mode draws no noise: the loss is deterministic.
+    Batch batch{pose, control, {}, {}};
+    EXPECT_EQ(model->loss(batch).loss().item<double>(), model->loss(batch).loss().item<double>());
+  }
+}
+
 // A point fixed in the world, seen from a root path that steps and turns, is where the transport
 // carries it (by hand through core/trajectory's integration), in standardised features; and the
 // residual needs joint positions.

@@ -67,6 +67,9 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .written_if([](const O& o) { return !o.short_clips; })
           .field("residual", &O::residual, "the flow models each frame minus the transported previous one")
           .written_if([](const O& o) { return o.residual; })
+          .field("history_noise", &O::history_noise,
+                 "training: std of Gaussian noise on the poses conditioned on (standardised units)", at_least(0.0))
+          .written_if([](const O& o) { return o.history_noise > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -290,7 +293,8 @@ torch::Tensor MoGlowImpl::labels_of(const torch::Tensor& content, const torch::T
 MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::Tensor& control,
                                        const torch::Tensor& history_keep,
                                        const std::vector<c10::optional<LstmState>>* init_states,
-                                       bool initialize_actnorm, const torch::Tensor& labels) {
+                                       bool initialize_actnorm, const torch::Tensor& labels,
+                                       const torch::Tensor& history_offset) {
   const int64_t tau = options_.tau;
   if (pose.dim() != 3 || pose.size(2) != context_.pose_dim)
     throw Error("moglow: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
@@ -300,11 +304,14 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
   if (pose.size(1) <= tau)
     throw Error("moglow: windows need more than tau = " + std::to_string(tau) + " frames, got " +
                 std::to_string(pose.size(1)));
-  auto hist_pose = history_keep.defined() ? pose * history_keep.unsqueeze(-1).to(pose.dtype()) : pose;
+  // What the model conditions on (history and the residual's previous frame) may be perturbed;
+  // the frames it scores never are.
+  const auto seen = history_offset.defined() ? pose + history_offset : pose;
+  auto hist_pose = history_keep.defined() ? seen * history_keep.unsqueeze(-1).to(pose.dtype()) : seen;
   auto cond = conditioning(hist_pose, control, labels);
   const int64_t n = pose.size(1) - tau;
   auto x = pose.narrow(1, tau, n);
-  if (options_.residual) x = x - transport_.apply(pose.narrow(1, tau - 1, n), control.narrow(1, tau, n));
+  if (options_.residual) x = x - transport_.apply(seen.narrow(1, tau - 1, n), control.narrow(1, tau, n));
   x = x.transpose(0, 1);  // [T', B, D]
   Encoded e;
   e.states.resize(steps.size());
@@ -340,7 +347,13 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     labels = labels_of(drop_labels(batch.content, p), drop_labels(batch.style, p), batch.pose.size(0),
                        batch.pose.options());
   }
-  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels);
+  torch::Tensor offset;
+  if (is_training() && options_.history_noise > 0) {
+    // Drawn on the CPU generator, as the dropout mask, for reproducible training on any device.
+    offset = (torch::randn(batch.pose.sizes(), torch::dtype(batch.pose.scalar_type())) * options_.history_noise)
+                 .to(batch.pose.device());
+  }
+  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels, offset);
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
   auto logdet = e.logdet;

@@ -56,6 +56,11 @@ struct MoGlowOptions {
   // must learn. The transport always takes the true previous frame (data dropout still hides it
   // from the conditioning).
   bool residual = false;
+  // Training only: standard deviation (standardised feature units) of Gaussian noise added to the
+  // poses the model conditions on (the history and the residual's previous frame), not to the
+  // frames it scores, so it learns to pull its own slightly-off poses back (with `residual`, the
+  // error of each frame would otherwise carry on into the next). 0 = off (the paper).
+  double history_noise = 0.0;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -185,10 +190,13 @@ class MoGlowImpl : public MotionModel {
   // (optional, per step) continues a previous window. initialize_actnorm: initialise any
   // uninitialised ActNorm from this data (loss() does so in training mode). labels: [B,
   // label_dim()] from label_features (undefined = no labels); ignored when label_dim() is 0.
+  // history_offset (optional [B, T, D]) is added to the poses conditioned on (history, the
+  // residual's previous frame) but not to the frames scored (history_noise).
   Encoded encode(const torch::Tensor& pose, const torch::Tensor& control,
                  const torch::Tensor& history_keep = {},
                  const std::vector<c10::optional<LstmState>>* init_states = nullptr,
-                 bool initialize_actnorm = false, const torch::Tensor& labels = {});
+                 bool initialize_actnorm = false, const torch::Tensor& labels = {},
+                 const torch::Tensor& history_offset = {});
 
   // Per-frame log p(x_t | ...) [B, T - tau] (nats) without dropout.
   torch::Tensor log_likelihood(const torch::Tensor& pose, const torch::Tensor& control);
