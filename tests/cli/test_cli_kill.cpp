@@ -53,9 +53,13 @@ int wait_exit(pid_t pid) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+// Steps of the killed run: enough that 20 starts (each killed up to 300 ms after its first
+// checkpoint) do not finish it however fast a step is (120 did on an idle machine).
+constexpr int kKillSteps = 600;
+
 std::vector<std::string> train_args(const std::string& data, const std::string& out, bool resume) {
   std::vector<std::string> a = {"train",   "moglow",       "--data", data,  "--out",          out,
-                                "--steps", "120",          "--batch", "4",  "--window",       "20",
+                                "--steps", std::to_string(kKillSteps), "--batch", "4",  "--window", "20",
                                 "--warmup", "0",           "--seed", "5",   "--checkpoint-every", "3",
                                 "--validate-every", "12",  "--threads", "1"};
   if (resume) a.push_back("--resume");
@@ -130,8 +134,8 @@ TEST(CliKill, TrainingSurvivesSigkillAtAnyMoment) {
   // A killed writer's temporary files are gone once the run has been resumed (RunLock).
   for (const auto& entry : fs::directory_iterator(killed))
     EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
-  EXPECT_EQ(a.step, 120);
-  EXPECT_EQ(b.step, 120);
+  EXPECT_EQ(a.step, kKillSteps);
+  EXPECT_EQ(b.step, kKillSteps);
   auto pa = a.trainable->named_parameters(), pb = b.trainable->named_parameters();
   for (const auto& kv : pa) EXPECT_TRUE(torch::equal(kv.value(), pb[kv.key()])) << kv.key();
 }
