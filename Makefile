@@ -11,7 +11,8 @@ CACHE   ?= $(BUILD)/cache
 
 DEB_PACKAGES := build-essential cmake pkg-config libtorch-dev libopenblas0-openmp libeigen3-dev \
   libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libzip-dev \
-  libpng-dev libgif-dev libstb-dev libtinygltf-dev libwebsocketpp-dev libboost-dev libceres-dev libgloo-dev
+  libpng-dev libgif-dev libstb-dev libtinygltf-dev libwebsocketpp-dev libboost-dev libceres-dev libgloo-dev \
+  python3-numpy
 # Tools checked by command, not package: a machine may have them from elsewhere (e.g. nodejs
 # with its own npm), and installing Debian's package over that would conflict.
 DEB_TOOLS := npm:npm chromium:chromium
