@@ -113,12 +113,12 @@ nlohmann::json spread_curve(const std::vector<eval::MotionPositions>& set) {
           {"std_m", std::vector<double>(d.std_m.data(), d.std_m.data() + d.std_m.size())}};
 }
 
-// The footstep curve's f_est of a set of motions.
-std::vector<int> footstep_counts(const std::vector<eval::MotionPositions>& motions,
-                                    const eval::SetMetricsOptions& o) {
+// The footstep curve (steps over v_tol) of a set of motions, feet found as the options say.
+eval::FootstepAnalysis footstep_curve(const std::vector<eval::MotionPositions>& motions,
+                                      const eval::SetMetricsOptions& o) {
   std::vector<eval::FootJoints> feet;
   for (const auto& m : motions) feet.push_back(eval::find_foot_joints(m, o.foot_joints));
-  return eval::analyse_footsteps(motions, feet, o.footsteps).f_est;
+  return eval::analyse_footsteps(motions, feet, o.footsteps);
 }
 
 // Everything `mosyn metrics --json` writes: metrics, footstep curves, spread curves, options.
@@ -129,9 +129,7 @@ nlohmann::json metrics_json(const MetricsArgs& a, const eval::SetMetricsOptions&
   nlohmann::json j;
   j["files"] = a.files;
   j["metrics"] = eval::metrics_to_json(rows);
-  std::vector<eval::FootJoints> f;
-  for (const auto& m : motions) f.push_back(eval::find_foot_joints(m, o.foot_joints));
-  const auto curve = eval::analyse_footsteps(motions, f, o.footsteps);
+  const auto curve = footstep_curve(motions, o);
   nlohmann::json steps;
   std::vector<double> v_cmps;
   for (double v : curve.v_tol_mps) v_cmps.push_back(std::round(v * 1e6) / 1e4);
@@ -141,7 +139,7 @@ nlohmann::json metrics_json(const MetricsArgs& a, const eval::SetMetricsOptions&
   if (with_ref) {
     j["reference"] = a.reference;
     j["reference_metrics"] = eval::metrics_to_json(ref_rows);
-    steps["reference_f_est"] = footstep_counts(ref_motions, o);
+    steps["reference_f_est"] = footstep_curve(ref_motions, o).f_est;
     j["fse_difference"] = std::isfinite(fse) ? nlohmann::json(fse) : nlohmann::json(nullptr);
   }
   j["footstep_curve"] = steps;

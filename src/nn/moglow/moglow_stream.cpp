@@ -97,7 +97,6 @@ MoGlowStream::MoGlowStream(MoGlowImpl& model, int64_t b, const std::vector<std::
   if (static_cast<int64_t>(seeds.size()) != b) throw Error("moglow stream: one seed per row needed");
   tau = model.options().tau;
   if (model.transport()) transport = *model.transport();
-  residual = model.transport() != nullptr;
   pose_dim = model.context().pose_dim;
   control_dim = model.context().control_dim;
   label_dim = model.label_dim();
@@ -207,7 +206,7 @@ torch::Tensor MoGlowStream::step(const torch::Tensor& control, const torch::Tens
   draw_noise();
   for (int64_t k = net.steps - 1; k >= 0; --k) reverse_step(k);
   // Residual: the flow gave x_t minus the previous frame (the history's newest) carried along.
-  if (residual) x.add_(transport.apply(cond.narrow(1, (tau - 1) * d, d), control));
+  if (transport) x.add_(transport->apply(cond.narrow(1, (tau - 1) * d, d), control));
   shift_history();
   return x.clone();
 }

@@ -20,6 +20,7 @@
 #include <torch/types.h>
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "nn/moglow/moglow.h"
@@ -58,8 +59,8 @@ struct MoGlowStream : StreamState {
   MoGlowInference net;
   int64_t batch = 0, tau = 0, pose_dim = 0, control_dim = 0, label_dim = 0, lookahead_dim = 0;
   double temperature = 1.0;
-  bool residual = false;     // MoGlowOptions::residual: each frame adds the transported previous one
-  PoseTransport transport;   // with residual
+  // MoGlowOptions::residual: each frame adds the transported previous one (nullopt without).
+  std::optional<PoseTransport> transport;
   torch::TensorOptions options;  // the model's dtype and device
   // [B, cond_dim], MoGlowImpl::conditioning's layout for one frame: pose history (tau x D, oldest
   // first), controls (tau + 1 x C, the frame being generated last), labels, look-ahead features.
