@@ -244,14 +244,13 @@ void encode(const Skeleton& skeleton, const Motion& motion, const FeatureLayout&
   }
 }
 
-Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose, const float* control,
-              int num_frames, double fps, const Eigen::Vector3d& start_position, double start_heading_rad) {
-  check_layout(skeleton, layout);
-  if (num_frames < 0) throw Error("decode: negative frame count");
-  const int num_joints = skeleton.num_joints();
-  const int root = layout.root_joint;
-  const double mpu = skeleton.meters_per_unit;
+namespace {
 
+// The root path of a control [T, 3] (sideways, forward in metres, turn in rad per frame; frame 0's
+// ignored) integrated from a start on the floor.
+GroundTrajectory decode_ground(const Skeleton& skeleton, const FeatureLayout& layout, const float* control,
+                               int num_frames, const Eigen::Vector3d& start_position, double start_heading_rad) {
+  const double mpu = skeleton.meters_per_unit;
   std::vector<RootDelta> deltas(static_cast<size_t>(num_frames));
   for (int t = 1; t < num_frames; ++t) {
     const float* c = control + static_cast<size_t>(t) * layout.control_dim;
@@ -259,137 +258,163 @@ Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float
     deltas[t].forward = c[1] / mpu;
     deltas[t].turn_rad = c[2];
   }
-  const GroundTrajectory ground =
-      integrate_root_deltas(skeleton, deltas, floor_projection(skeleton, start_position), start_heading_rad);
+  return integrate_root_deltas(skeleton, deltas, floor_projection(skeleton, start_position), start_heading_rad);
+}
 
-  Motion motion = Motion::rest(skeleton, num_frames, fps);
+// Rotations form: 6D rotations per joint, the trajectory joint's relative to the heading, its
+// height and (smoothed root) floor offset in the heading frame.
+void decode_rotations(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose,
+                      const GroundTrajectory& ground, Motion* motion) {
+  const int num_joints = skeleton.num_joints(), root = layout.root_joint;
+  const double mpu = skeleton.meters_per_unit;
   const std::array<int, 2> floor = floor_axes(skeleton);
-  const std::vector<std::vector<int>> children = [&] {
-    std::vector<std::vector<int>> out(num_joints);
-    for (int j = 1; j < num_joints; ++j) out[skeleton.parents[j]].push_back(j);
-    return out;
-  }();
+  std::vector<Eigen::Quaterniond> world(num_joints);
+  std::vector<Eigen::Vector3d> world_pos(num_joints);
+  for (int t = 0; t < motion->num_frames; ++t) {
+    const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
+    Vector6d r;
+    int slot = 7;
+    for (int j = 0; j < num_joints; ++j) {
+      if (j == root) continue;
+      for (int k = 0; k < 6; ++k) r[k] = p[slot + k];
+      motion->rotation(t, j) = quat_from_rot6d(r);
+      if (t > 0) motion->rotation(t, j) = align_hemisphere(motion->rotation(t, j), motion->rotation(t - 1, j));
+      slot += 6;
+    }
+    for (int k = 0; k < 6; ++k) r[k] = p[1 + k];
+    const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
+    const Eigen::Quaterniond root_world = heading * quat_from_rot6d(r);
+    Eigen::Vector3d root_pos = ground.positions[t] + up_vector(skeleton) * (p[0] / mpu);
+    if (layout.smoothed_root()) {
+      Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+      offset[floor[0]] = p[slot] / mpu;
+      offset[floor[1]] = p[slot + 1] / mpu;
+      root_pos += heading * offset;
+    }
+    // Joints above the trajectory joint (none once a static root is collapsed) keep their
+    // decoded rotations and rest offsets; the trajectory joint is placed in their frame.
+    const int parent = skeleton.parents[root];
+    if (parent < 0) {
+      motion->rotation(t, root) = t > 0 ? align_hemisphere(root_world, motion->rotation(t - 1, root)) : root_world;
+      motion->translation(t, root) = root_pos;
+      continue;
+    }
+    for (int j = 0; j < root; ++j) {
+      const int pj = skeleton.parents[j];
+      world[j] = pj < 0 ? motion->rotation(t, j) : world[pj] * motion->rotation(t, j);
+      world_pos[j] = pj < 0 ? motion->translation(t, j) : world_pos[pj] + world[pj] * motion->translation(t, j);
+    }
+    motion->rotation(t, root) = (world[parent].conjugate() * root_world).normalized();
+    motion->translation(t, root) = world[parent].conjugate() * (root_pos - world_pos[parent]);
+  }
+}
 
-  switch (layout.form) {
-    case PoseForm::kRotations: {
-    std::vector<Eigen::Quaterniond> world(num_joints);
-    std::vector<Eigen::Vector3d> world_pos(num_joints);
-    for (int t = 0; t < num_frames; ++t) {
-      const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
-      Vector6d r;
-      int slot = 7;
-      for (int j = 0; j < num_joints; ++j) {
-        if (j == root) continue;
-        for (int k = 0; k < 6; ++k) r[k] = p[slot + k];
-        motion.rotation(t, j) = quat_from_rot6d(r);
-        if (t > 0) motion.rotation(t, j) = align_hemisphere(motion.rotation(t, j), motion.rotation(t - 1, j));
-        slot += 6;
-      }
-      for (int k = 0; k < 6; ++k) r[k] = p[1 + k];
-      const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
-      const Eigen::Quaterniond root_world = heading * quat_from_rot6d(r);
-      Eigen::Vector3d root_pos = ground.positions[t] + up_vector(skeleton) * (p[0] / mpu);
-      if (layout.smoothed_root()) {
-        Eigen::Vector3d offset = Eigen::Vector3d::Zero();
-        offset[floor[0]] = p[slot] / mpu;
-        offset[floor[1]] = p[slot + 1] / mpu;
-        root_pos += heading * offset;
-      }
-      // Joints above the trajectory joint (none once a static root is collapsed) keep their
-      // decoded rotations and rest offsets; the trajectory joint is placed in their frame.
-      const int parent = skeleton.parents[root];
-      if (parent < 0) {
-        motion.rotation(t, root) = t > 0 ? align_hemisphere(root_world, motion.rotation(t - 1, root)) : root_world;
-        motion.translation(t, root) = root_pos;
-      } else {
-        for (int j = 0; j < root; ++j) {
-          const int pj = skeleton.parents[j];
-          world[j] = pj < 0 ? motion.rotation(t, j) : world[pj] * motion.rotation(t, j);
-          world_pos[j] = pj < 0 ? motion.translation(t, j) : world_pos[pj] + world[pj] * motion.translation(t, j);
-        }
-        motion.rotation(t, root) = (world[parent].conjugate() * root_world).normalized();
-        motion.translation(t, root) = world[parent].conjugate() * (root_pos - world_pos[parent]);
-      }
-    }
-      break;
-    }
-    case PoseForm::kPositions: {
-    // Inverse kinematics, top-down from the skeleton's root in world space.
-    const double zero_length = kZeroBoneRelative * skeleton_size(skeleton);
-    std::vector<std::vector<std::pair<Eigen::Vector3d, int>>> constraints(num_joints);
+// Positions form: inverse kinematics, top-down from the skeleton's root in world space; each
+// joint's rotation best maps its rest offsets to its (non-degenerate) descendants' targets.
+void decode_positions(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose,
+                      const GroundTrajectory& ground, Motion* motion) {
+  const int num_joints = skeleton.num_joints(), root = layout.root_joint;
+  const double mpu = skeleton.meters_per_unit;
+  std::vector<std::vector<int>> children(num_joints);
+  for (int j = 1; j < num_joints; ++j) children[skeleton.parents[j]].push_back(j);
+  const double zero_length = kZeroBoneRelative * skeleton_size(skeleton);
+  std::vector<std::vector<std::pair<Eigen::Vector3d, int>>> constraints(num_joints);
+  for (int j = 0; j < num_joints; ++j)
+    constraining_descendants(skeleton, children, j, Eigen::Vector3d::Zero(), zero_length, 0, &constraints[j]);
+  std::vector<Eigen::Vector3d> target(num_joints);
+  std::vector<Eigen::Quaterniond> world(num_joints);
+  std::vector<Eigen::Vector3d> rest_vectors, target_vectors;
+  // Joints above the trajectory joint are static placeholders (identity rotation); the chain
+  // down to it takes its translations from the targets so the trajectory joint lands exactly.
+  std::vector<bool> above_root(num_joints, false);
+  for (int a = skeleton.parents[root]; a >= 0; a = skeleton.parents[a]) above_root[a] = true;
+  for (int t = 0; t < motion->num_frames; ++t) {
+    const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
+    const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
     for (int j = 0; j < num_joints; ++j)
-      constraining_descendants(skeleton, children, j, Eigen::Vector3d::Zero(), zero_length, 0, &constraints[j]);
-    std::vector<Eigen::Vector3d> target(num_joints);
-    std::vector<Eigen::Quaterniond> world(num_joints);
-    std::vector<Eigen::Vector3d> rest_vectors, target_vectors;
-    // Joints above the trajectory joint are static placeholders (identity rotation); the chain
-    // down to it takes its translations from the targets so the trajectory joint lands exactly.
-    std::vector<bool> above_root(num_joints, false);
-    for (int a = skeleton.parents[root]; a >= 0; a = skeleton.parents[a]) above_root[a] = true;
-    for (int t = 0; t < num_frames; ++t) {
-      const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
-      const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
-      for (int j = 0; j < num_joints; ++j)
-        target[j] = ground.positions[t] + heading * (Eigen::Vector3d(p[3 * j], p[3 * j + 1], p[3 * j + 2]) / mpu);
-      motion.translation(t, 0) = target[0];
-      for (int j = 0; j < num_joints; ++j) {
-        const int parent = skeleton.parents[j];
-        const Eigen::Quaterniond parent_world = parent < 0 ? Eigen::Quaterniond::Identity() : world[parent];
-        rest_vectors.clear();
-        target_vectors.clear();
-        for (const auto& [rest, d] : constraints[j]) {
-          const Eigen::Vector3d v = target[d] - target[j];
-          if (v.norm() <= zero_length) continue;
-          rest_vectors.push_back(rest);
-          target_vectors.push_back(v);
-        }
-        if (parent >= 0 && (above_root[j] || j == root))
-          motion.translation(t, j) = parent_world.conjugate() * (target[j] - target[parent]);
-        Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
-        if (above_root[j]) {
-          // keep identity
-        } else if (rest_vectors.size() >= 2 && spans_plane(rest_vectors)) {
-          const Eigen::Quaterniond w(kabsch(rest_vectors, target_vectors));
-          local = parent_world.conjugate() * w;
-        } else if (!rest_vectors.empty()) {
-          // One direction: the minimal rotation; twist about the bone is not observable.
-          const Eigen::Vector3d in_parent = parent_world.conjugate() * target_vectors[0];
-          local = Eigen::Quaterniond::FromTwoVectors(rest_vectors[0], in_parent);
-        } else if (parent < 0) {
-          local = heading;  // nothing to fit: face along the trajectory
-        }
-        local.normalize();
-        if (t > 0) local = align_hemisphere(local, motion.rotation(t - 1, j));
-        motion.rotation(t, j) = local;
-        world[j] = (parent_world * local).normalized();
+      target[j] = ground.positions[t] + heading * (Eigen::Vector3d(p[3 * j], p[3 * j + 1], p[3 * j + 2]) / mpu);
+    motion->translation(t, 0) = target[0];
+    for (int j = 0; j < num_joints; ++j) {
+      const int parent = skeleton.parents[j];
+      const Eigen::Quaterniond parent_world = parent < 0 ? Eigen::Quaterniond::Identity() : world[parent];
+      rest_vectors.clear();
+      target_vectors.clear();
+      for (const auto& [rest, d] : constraints[j]) {
+        const Eigen::Vector3d v = target[d] - target[j];
+        if (v.norm() <= zero_length) continue;
+        rest_vectors.push_back(rest);
+        target_vectors.push_back(v);
       }
-    }
-      break;
-    }
-    case PoseForm::kMarkers: {
-      const MarkerSet markers = cmu41_markers(skeleton);
-      std::vector<Eigen::Vector3d> targets(markers.markers.size());
-      for (int t = 0; t < num_frames; ++t) {
-        const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
-        const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
-        for (size_t i = 0; i < targets.size(); ++i)
-          targets[i] = ground.positions[t] + heading * (Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]) / mpu);
-        MarkerFitOptions options;
-        options.pose_prior = 1e-7;  // only to hold what the markers do not see
-        options.max_iterations = 50;
-        if (t == 0) {
-          initialise_from_markers(skeleton, markers, targets, &motion, 0);
-          options.max_iterations = 200;
-        } else {
-          for (int j = 0; j < num_joints; ++j) motion.rotation(t, j) = motion.rotation(t - 1, j);
-          motion.translation(t, 0) = motion.translation(t - 1, 0);
-        }
-        fit_markers(skeleton, markers, targets, &motion, t, options);
-        for (int j = 0; j < num_joints; ++j)
-          if (t > 0) motion.rotation(t, j) = align_hemisphere(motion.rotation(t, j), motion.rotation(t - 1, j));
+      if (parent >= 0 && (above_root[j] || j == root))
+        motion->translation(t, j) = parent_world.conjugate() * (target[j] - target[parent]);
+      Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
+      if (above_root[j]) {
+        // keep identity
+      } else if (rest_vectors.size() >= 2 && spans_plane(rest_vectors)) {
+        const Eigen::Quaterniond w(kabsch(rest_vectors, target_vectors));
+        local = parent_world.conjugate() * w;
+      } else if (!rest_vectors.empty()) {
+        // One direction: the minimal rotation; twist about the bone is not observable.
+        const Eigen::Vector3d in_parent = parent_world.conjugate() * target_vectors[0];
+        local = Eigen::Quaterniond::FromTwoVectors(rest_vectors[0], in_parent);
+      } else if (parent < 0) {
+        local = heading;  // nothing to fit: face along the trajectory
       }
-      break;
+      local.normalize();
+      if (t > 0) local = align_hemisphere(local, motion->rotation(t - 1, j));
+      motion->rotation(t, j) = local;
+      world[j] = (parent_world * local).normalized();
     }
+  }
+}
+
+// Markers form: the CMU 41-marker set fitted frame by frame (warm-started from the last frame).
+void decode_markers(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose,
+                    const GroundTrajectory& ground, Motion* motion) {
+  const int num_joints = skeleton.num_joints();
+  const double mpu = skeleton.meters_per_unit;
+  const MarkerSet markers = cmu41_markers(skeleton);
+  std::vector<Eigen::Vector3d> targets(markers.markers.size());
+  for (int t = 0; t < motion->num_frames; ++t) {
+    const float* p = pose + static_cast<size_t>(t) * layout.pose_dim;
+    const Eigen::Quaterniond heading = heading_rotation(skeleton, ground.headings_rad[t]);
+    for (size_t i = 0; i < targets.size(); ++i)
+      targets[i] = ground.positions[t] + heading * (Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]) / mpu);
+    MarkerFitOptions options;
+    options.pose_prior = 1e-7;  // only to hold what the markers do not see
+    options.max_iterations = 50;
+    if (t == 0) {
+      initialise_from_markers(skeleton, markers, targets, motion, 0);
+      options.max_iterations = 200;
+    } else {
+      for (int j = 0; j < num_joints; ++j) motion->rotation(t, j) = motion->rotation(t - 1, j);
+      motion->translation(t, 0) = motion->translation(t - 1, 0);
+    }
+    fit_markers(skeleton, markers, targets, motion, t, options);
+    for (int j = 0; j < num_joints; ++j)
+      if (t > 0) motion->rotation(t, j) = align_hemisphere(motion->rotation(t, j), motion->rotation(t - 1, j));
+  }
+}
+
+}  // namespace
+
+Motion decode(const Skeleton& skeleton, const FeatureLayout& layout, const float* pose, const float* control,
+              int num_frames, double fps, const Eigen::Vector3d& start_position, double start_heading_rad) {
+  check_layout(skeleton, layout);
+  if (num_frames < 0) throw Error("decode: negative frame count");
+  const GroundTrajectory ground =
+      decode_ground(skeleton, layout, control, num_frames, start_position, start_heading_rad);
+  Motion motion = Motion::rest(skeleton, num_frames, fps);
+  switch (layout.form) {
+    case PoseForm::kRotations:
+      decode_rotations(skeleton, layout, pose, ground, &motion);
+      break;
+    case PoseForm::kPositions:
+      decode_positions(skeleton, layout, pose, ground, &motion);
+      break;
+    case PoseForm::kMarkers:
+      decode_markers(skeleton, layout, pose, ground, &motion);
+      break;
   }
   return motion;
 }

@@ -269,7 +269,9 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   auto validity = (r.validity * mask).sum() / valid;
   auto kl = (u.kl * word_mask).sum() / valid;
   const double w_kl = is_training() ? current_kl_weight() : options_.kl_weight;
-  auto total = recon + w_kl * kl + options_.validity_weight * validity;
+  // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
+  auto kl_loss = options_.kl_free_nats > 0 ? torch::clamp_min(kl, options_.kl_free_nats) : kl;
+  auto total = recon + w_kl * kl_loss + options_.validity_weight * validity;
   torch::Tensor cl = torch::zeros({}, total.options());
   const double w_cl = is_training() ? current_classifier_weight() : options_.classifier_weight;
   if (!options_.classifier_run.empty() && w_cl > 0) {

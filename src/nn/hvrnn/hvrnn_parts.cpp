@@ -42,6 +42,8 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
           .field("kl_weight", &O::kl_weight, "lambda_KL after annealing", at_least(0.0))
           .field("kl_warmup", &O::kl_warmup, "fraction of training with lambda_KL = 0", in_range(0.0, 1.0))
           .field("kl_anneal", &O::kl_anneal, "fraction over which lambda_KL ramps up", in_range(0.0, 1.0))
+          .field("kl_free_nats", &O::kl_free_nats, "free nats per valid frame under which the KL is not pushed down",
+                 at_least(0.0))
           .field("validity_weight", &O::validity_weight, "lambda_Ang, 6D validity penalty", at_least(0.0))
           .field("classifier_run", &O::classifier_run, "trained classifier run for the classifier loss (\"\" = off)")
           .field("classifier_weight", &O::classifier_weight, "lambda_CL after its ramp", at_least(0.0))

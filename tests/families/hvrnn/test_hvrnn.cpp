@@ -163,6 +163,24 @@ TEST(HvrnnModel, ShapesAndMaskingForAnOddLength) {
   EXPECT_LT(hvrnn::rot6d_validity(r6).abs().max().item<double>(), 1e-4);
 }
 
+// Free bits: the loss takes max(KL, kl_free_nats); the reported KL stays the plain one.
+TEST(HvrnnLoss, FreeNatsFloorTheKlInTheLoss) {
+  Batch x = rotation_batch(3, 9);
+  for (double free : {0.0, 0.01, 1e3}) {
+    torch::manual_seed(1);
+    HvrnnImpl m(HvrnnOptions::from_json(tiny({{"kl_free_nats", free}, {"kl_weight", 0.7}})), rotations_context());
+    m.eval();  // the schedules' final weights
+    torch::manual_seed(2);
+    const LossTerms out = m.loss(x);
+    auto term = [&](const char* k) { return out.terms.at(k).item<double>(); };
+    const double expected =
+        term("recon") + 0.7 * std::max(term("kl"), free) + m.options().validity_weight * term("validity");
+    EXPECT_NEAR(out.loss().item<double>(), expected, 1e-5 * std::max(1.0, std::abs(expected))) << "free " << free;
+    if (free == 1e3) EXPECT_LT(term("kl"), free);  // the floor, not the KL, entered the loss
+  }
+  EXPECT_THROW(HvrnnOptions::from_json({{"kl_free_nats", -1.0}}), Error);
+}
+
 // A clip shorter than the training window comes padded (its last frame repeated) with its length
 // in Batch::frames: every term equals the loss of the unpadded clip (same words, same noise).
 TEST(HvrnnModel, ShortClipsPaddedToTheWindowScoreAsThemselves) {
