@@ -302,9 +302,15 @@ std::vector<bool> validation_files(int n, double val_fraction, uint64_t seed) {
   return is_val;
 }
 
+// Which augmented copies of each clip a dataset holds (PrepareOptions::mirror, ::reverse).
+struct Augmentation {
+  bool mirror = false;
+  bool reverse = false;
+};
+
 // The feature records of one file's clip cut to keep_frames: the original, then its augmented
 // copies (mirrored with mirrored labels, reversed) next to it. Errors name the file.
-std::vector<ClipRecord> encode_with_augmentation(const PrepareOptions& o, const DatasetInfo& info, const MirrorPlan& plan,
+std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const DatasetInfo& info, const MirrorPlan& plan,
                                                  const Item& item, Clip clip, int keep_frames) {
   if (keep_frames < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames);
   auto mirrored_id = [](int id, const std::vector<std::string>& vocabulary) {
@@ -389,11 +395,12 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
+  const Augmentation augmentation{o.mirror, o.reverse};
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {
     if (keep_frames[i] == 0) return;
-    records[i] = encode_with_augmentation(o, info, plan, items[i], std::move(clips[i]), keep_frames[i]);
+    records[i] = encode_with_augmentation(augmentation, info, plan, items[i], std::move(clips[i]), keep_frames[i]);
     report("encode", items[i].source);
   });
 
