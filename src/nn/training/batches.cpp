@@ -93,11 +93,27 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
   return b;
 }
 
+namespace {
+
+// How a label's training clips fare against the window: clips kept, and its longest clip.
+struct LabelCoverage {
+  int kept_clips = 0;
+  int longest_frames = 0;
+};
+
+void count_label(int label, int num_frames, bool kept, std::vector<LabelCoverage>* coverage) {
+  if (label < 0 || label >= static_cast<int>(coverage->size())) return;
+  LabelCoverage& c = (*coverage)[static_cast<size_t>(label)];
+  c.kept_clips += kept;
+  c.longest_frames = std::max(c.longest_frames, num_frames);
+}
+
+}  // namespace
+
 std::string left_out_warning(const data::Dataset& dataset, int window, int min_short_frames) {
   const data::DatasetInfo& info = dataset.info();
   const auto& clips = dataset.clips("train");
-  const size_t nc = info.content_labels.size(), ns = info.style_labels.size();
-  std::vector<int> content_windows(nc, 0), style_windows(ns, 0), content_longest(nc, 0), style_longest(ns, 0);
+  std::vector<LabelCoverage> contents(info.content_labels.size()), styles(info.style_labels.size());
   int left_out = 0;
   int64_t frames_left_out = 0, frames_total = 0;
   for (const data::ClipRecord& c : clips) {
@@ -107,30 +123,24 @@ std::string left_out_warning(const data::Dataset& dataset, int window, int min_s
       ++left_out;
       frames_left_out += c.num_frames;
     }
-    if (c.content >= 0 && c.content < static_cast<int>(nc)) {
-      content_windows[c.content] += kept;
-      content_longest[c.content] = std::max(content_longest[c.content], c.num_frames);
-    }
-    if (c.style >= 0 && c.style < static_cast<int>(ns)) {
-      style_windows[c.style] += kept;
-      style_longest[c.style] = std::max(style_longest[c.style], c.num_frames);
-    }
+    count_label(c.content, c.num_frames, kept, &contents);
+    count_label(c.style, c.num_frames, kept, &styles);
   }
   if (left_out == 0) return "";
   std::ostringstream m;
   m << "warning: " << left_out << " of " << clips.size() << " training clips ("
     << std::lround(100.0 * frames_left_out / std::max<int64_t>(1, frames_total))
     << "% of the frames) are shorter than the " << window << "-frame window and are left out";
-  auto unseen = [&](const char* kind, const std::vector<std::string>& names, const std::vector<int>& kept,
-                    const std::vector<int>& longest) {
+  auto unseen = [&](const char* kind, const std::vector<std::string>& names, const std::vector<LabelCoverage>& coverage) {
     std::string list;
     for (size_t k = 0; k < names.size(); ++k)
-      if (kept[k] == 0 && longest[k] > 0)
-        list += (list.empty() ? "" : ", ") + names[k] + " (longest clip " + std::to_string(longest[k]) + " frames)";
+      if (coverage[k].kept_clips == 0 && coverage[k].longest_frames > 0)
+        list += (list.empty() ? "" : ", ") + names[k] + " (longest clip " + std::to_string(coverage[k].longest_frames) +
+                " frames)";
     if (!list.empty()) m << "; " << kind << " never seen: " << list;
   };
-  unseen("contents", info.content_labels, content_windows, content_longest);
-  unseen("styles", info.style_labels, style_windows, style_longest);
+  unseen("contents", info.content_labels, contents);
+  unseen("styles", info.style_labels, styles);
   m << " (a shorter --window keeps them)";
   return m.str();
 }
