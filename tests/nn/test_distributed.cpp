@@ -222,6 +222,16 @@ TEST(Distributed, TwoProcessesEqualOne) {
     EXPECT_EQ(logs_two[i].at("step"), logs_one[i].at("step"));
     EXPECT_NEAR(logs_two[i].at("loss").get<double>(), logs_one[i].at("loss").get<double>(), 1e-5);
     EXPECT_NEAR(logs_two[i].at("val_loss").get<double>(), logs_one[i].at("val_loss").get<double>(), 1e-5);
+    // The validation terms are reduced over the ranks too (here MoGlow's nll_frame, logdet_frame).
+    int val_terms = 0;
+    for (auto it = logs_one[i].begin(); it != logs_one[i].end(); ++it) {
+      if (it.key().rfind("val_", 0) != 0 || it.key() == "val_loss") continue;
+      ++val_terms;
+      EXPECT_NEAR(logs_two[i].at(it.key()).get<double>(), it.value().get<double>(),
+                  1e-5 * std::max(1.0, std::abs(it.value().get<double>())))
+          << it.key();
+    }
+    EXPECT_GT(val_terms, 0);
   }
   // Only rank 0 wrote the run: its files and nothing else (a second writer would have failed on
   // the run lock, and a resumed copy of a checkpoint would be a stray file).

@@ -12,7 +12,8 @@
 //   best.pt        the same at the step with the lowest validation loss so far (of the latest
 //                  stage reached: losses of different stages need not be comparable)
 //   log.jsonl      one JSON object per logged step: {"step", "loss", "lr", "time_s", metrics...}
-//                  and, at validation steps, "val_loss"; runs of several stages add "stage" (name)
+//                  and, at validation steps, "val_loss" and the mean of each other term as
+//                  "val_<term>"; runs of several stages add "stage" (name)
 // Every file is written atomically (temporary file + rename), so an interrupted run always
 // leaves the previous complete files.
 //

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -142,6 +143,7 @@ class Trainer {
   int stage_step_ = 0;  // steps done in it
   bool resume_pending_ = false;  // the current stage's optimiser state is still in the checkpoint
   double best_val_ = kNaN;  // NaN = not validated yet (a validation NLL may be negative)
+  std::map<std::string, double> val_terms_;  // the last validation's term means (not "loss")
   training::StageParams params_;
   std::unique_ptr<torch::optim::Optimizer> optimizer_;
   Clock::time_point t0_, t_last_;
@@ -517,34 +519,48 @@ void Trainer::report(const LossTerms& terms, double loss, double lr, double val,
   p.elapsed_s = std::chrono::duration<double>(now - t0_).count();
   nlohmann::json line = {{"step", step_}, {"loss", loss}, {"lr", lr}, {"time_s", p.elapsed_s}};
   for (const auto& kv : p.metrics) line[kv.first] = kv.second;
-  if (p.has_val) line["val_loss"] = val;
+  if (p.has_val) {
+    line["val_loss"] = val;
+    for (const auto& [name, value] : val_terms_) line["val_" + name] = value;
+  }
   if (p.num_stages > 1) line["stage"] = p.stage;
   log_->append(line.dump());
   if (cb_.on_progress) cb_.on_progress(p);
 }
 
 // The mean loss over the validation windows; in a data-parallel run each rank scores its shard
-// of them (in batches of its share of the batch) and the sums are added up.
+// of them (in batches of its share of the batch) and the sums are added up. The means of the
+// model's other terms go to val_terms_ (logged as "val_<term>").
 double Trainer::validate() {
+  val_terms_.clear();
   if (val_.windows.empty()) return kNaN;
   torch::NoGradGuard no_grad;
   model_->eval();
   const Shard shard = shard_of(val_.windows.size(), rank_, world_);
   const size_t batch = (static_cast<size_t>(opts_.batch) + world_ - 1) / world_;
   double total = 0, n = 0;
+  std::map<std::string, double> term_sums;
   for (size_t b = 0; b < shard.count; b += batch) {
     const size_t count = std::min(batch, shard.count - b);
     auto terms = model_->loss(maker_->make(val_, shard.begin + b, count));
     total += terms.loss().item<double>() * count;
+    for (const auto& [name, value] : terms.terms)
+      if (name != "loss" && value.numel() == 1) term_sums[name] += value.item<double>() * count;
     n += count;
   }
   training::restore_training_mode(*model_, params_);
   if (group_) {
-    torch::Tensor sums = torch::tensor({total, n}, torch::kDouble);
-    group_->allreduce_sum(sums);
-    total = sums[0].item<double>();
-    n = sums[1].item<double>();
+    // Every rank's model returns the same term names (a std::map: the same order).
+    std::vector<double> sums = {total, n};
+    for (const auto& kv : term_sums) sums.push_back(kv.second);
+    torch::Tensor t = torch::tensor(sums, torch::kDouble);
+    group_->allreduce_sum(t);
+    total = t[0].item<double>();
+    n = t[1].item<double>();
+    int64_t i = 2;
+    for (auto& kv : term_sums) kv.second = t[i++].item<double>();
   }
+  for (const auto& [name, sum] : term_sums) val_terms_[name] = sum / n;
   return total / n;
 }
 
