@@ -50,6 +50,10 @@ void add_view_commands(CLI::App& app, Action* action);   // metrics, render, vie
 void add_eval_commands(CLI::App& app, Action* action);   // eval, report, compare
 void add_serve_command(CLI::App& app, Action* action);   // the live page
 
+// What both binaries' apps share: description, version flag, one sub-command required, and the
+// commands that need no LibTorch (info, convert, data, metrics, render, view).
+void add_common_setup_and_file_commands(CLI::App& app, Action* action);
+
 // The commands that run models and so need LibTorch: the light `mosyn` binary hands them, with the
 // whole command line, to `mosyn-torch` beside it (which also runs every light command).
 const std::vector<std::string>& torch_commands();

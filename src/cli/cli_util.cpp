@@ -68,6 +68,16 @@ std::vector<std::string> split_commas(const std::string& text) {
   return out;
 }
 
+void add_common_setup_and_file_commands(CLI::App& app, Action* action) {
+  app.description("mosyn: probabilistic human-motion synthesis (BVH in, many natural motions out)");
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("mosyn 0.1.0"));
+  add_info_command(app, action);
+  add_convert_command(app, action);
+  add_data_commands(app, action);
+  add_view_commands(app, action);
+}
+
 const std::vector<std::string>& torch_commands() {
   static const std::vector<std::string> kCommands = {"train", "sample", "export", "eval", "report", "compare", "serve"};
   return kCommands;

@@ -43,16 +43,11 @@ int main(int argc, char** argv) {
               << " (build the mosyn-torch target)\n";
     return 1;
   }
-  CLI::App app{"mosyn: probabilistic human-motion synthesis (BVH in, many natural motions out)"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("mosyn 0.1.0"));
+  CLI::App app;
+  mosyn::cli::Action action;
+  mosyn::cli::add_common_setup_and_file_commands(app, &action);
   std::string models = "Commands that run models (see mosyn <command> --help):";
   for (const auto& c : heavy) models += " " + c;
   app.footer(models);
-  mosyn::cli::Action action;
-  mosyn::cli::add_info_command(app, &action);
-  mosyn::cli::add_convert_command(app, &action);
-  mosyn::cli::add_data_commands(app, &action);
-  mosyn::cli::add_view_commands(app, &action);
   return mosyn::cli::run_app(app, action, argc, argv);
 }

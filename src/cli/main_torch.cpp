@@ -4,14 +4,9 @@
 #include "cli/cli.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"mosyn: probabilistic human-motion synthesis (BVH in, many natural motions out)"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("mosyn 0.1.0"));
+  CLI::App app;
   mosyn::cli::Action action;
-  mosyn::cli::add_info_command(app, &action);
-  mosyn::cli::add_convert_command(app, &action);
-  mosyn::cli::add_data_commands(app, &action);
-  mosyn::cli::add_view_commands(app, &action);
+  mosyn::cli::add_common_setup_and_file_commands(app, &action);
   mosyn::cli::add_model_commands(app, &action);
   mosyn::cli::add_eval_commands(app, &action);
   mosyn::cli::add_serve_command(app, &action);
