@@ -272,6 +272,8 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
   auto kl_loss = options_.kl_free_nats > 0 ? torch::clamp_min(kl, options_.kl_free_nats) : kl;
   auto total = recon + w_kl * kl_loss + options_.validity_weight * validity;
+  auto velocity = hvrnn::velocity_error(pred, frames, mask);
+  if (options_.velocity_weight > 0) total = total + options_.velocity_weight * velocity;
   torch::Tensor cl = torch::zeros({}, total.options());
   const double w_cl = is_training() ? current_classifier_weight() : options_.classifier_weight;
   if (!options_.classifier_run.empty() && w_cl > 0) {
@@ -288,6 +290,7 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   terms.terms["recon"] = recon.detach();
   terms.terms["kl"] = kl.detach();
   terms.terms["validity"] = validity.detach();
+  terms.terms["velocity"] = velocity.detach();
   terms.terms["classifier"] = cl.detach();
   terms.terms["geodesic"] = ((r.geodesic * mask).sum() / valid).detach();
   terms.terms["kl_weight"] = torch::full({}, w_kl);

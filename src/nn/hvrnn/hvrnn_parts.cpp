@@ -44,6 +44,8 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
           .field("kl_anneal", &O::kl_anneal, "fraction over which lambda_KL ramps up", in_range(0.0, 1.0))
           .field("kl_free_nats", &O::kl_free_nats, "free nats per valid frame under which the KL is not pushed down",
                  at_least(0.0))
+          .field("velocity_weight", &O::velocity_weight, "weight of the frame-to-frame velocity error",
+                 at_least(0.0))
           .field("validity_weight", &O::validity_weight, "lambda_Ang, 6D validity penalty", at_least(0.0))
           .field("classifier_run", &O::classifier_run, "trained classifier run for the classifier loss (\"\" = off)")
           .field("classifier_weight", &O::classifier_weight, "lambda_CL after its ramp", at_least(0.0))
@@ -151,6 +153,16 @@ torch::Tensor rot6d_validity(const torch::Tensor& r6) {
 torch::Tensor gaussian_kl(const torch::Tensor& mq, const torch::Tensor& sq, const torch::Tensor& mp,
                           const torch::Tensor& sp) {
   return diagonal_gaussian_kl(mq, 2.0 * torch::log(sq), mp, 2.0 * torch::log(sp));
+}
+
+torch::Tensor velocity_error(const torch::Tensor& pred, const torch::Tensor& target, const torch::Tensor& mask) {
+  const int64_t t = pred.size(1);
+  if (t < 2) return torch::zeros({}, pred.options());
+  auto step = [&](const torch::Tensor& x) { return x.narrow(1, 1, t - 1) - x.narrow(1, 0, t - 1); };
+  // Valid frames form a prefix of each window, so a pair counts when its later frame is valid.
+  auto pair_mask = mask.narrow(1, 1, t - 1);
+  auto error = 0.5 * (step(pred) - step(target)).pow(2).sum(-1);
+  return (error * pair_mask).sum() / pair_mask.sum().clamp_min(1.0);
 }
 
 }  // namespace hvrnn

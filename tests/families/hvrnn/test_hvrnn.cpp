@@ -181,6 +181,36 @@ TEST(HvrnnLoss, FreeNatsFloorTheKlInTheLoss) {
   EXPECT_THROW(HvrnnOptions::from_json({{"kl_free_nats", -1.0}}), Error);
 }
 
+// The velocity term: by hand for two frames, and it enters the loss with its weight.
+TEST(HvrnnLoss, VelocityTermMatchesHandComputedFrameSteps) {
+  Batch x = rotation_batch(2, 9);
+  for (double w : {0.0, 2.5}) {
+    torch::manual_seed(1);
+    HvrnnImpl m(HvrnnOptions::from_json(tiny({{"velocity_weight", w}})), rotations_context());
+    m.eval();
+    torch::manual_seed(2);
+    const LossTerms out = m.loss(x);
+    auto term = [&](const char* k) { return out.terms.at(k).item<double>(); };
+    EXPECT_GT(term("velocity"), 0.0);
+    const double expected = term("recon") + m.options().kl_weight * term("kl") +
+                            m.options().validity_weight * term("validity") + w * term("velocity") +
+                            m.options().classifier_weight * term("classifier");
+    EXPECT_NEAR(out.loss().item<double>(), expected, 1e-5 * std::max(1.0, std::abs(expected))) << "weight " << w;
+  }
+  // Known answer: pred moves by 1 in one feature, target by 3, over 3 frames; the last frame
+  // is padding (mask 0): two valid pairs of 0.5 * (1 - 3)^2 = 2 each, the padded pair left out.
+  auto pred = torch::zeros({1, 4, 5});
+  auto target = torch::zeros({1, 4, 5});
+  for (int f = 0; f < 4; ++f) {
+    pred[0][f][2] = 1.0 * f;
+    target[0][f][2] = 3.0 * f;
+  }
+  target[0][3][2] = 100.0;  // padding: must not count
+  auto mask = torch::tensor({{1.0f, 1.0f, 1.0f, 0.0f}});
+  EXPECT_NEAR(hvrnn::velocity_error(pred, target, mask).item<double>(), 2.0, 1e-6);
+  EXPECT_THROW(HvrnnOptions::from_json({{"velocity_weight", -1.0}}), Error);
+}
+
 // A clip shorter than the training window comes padded (its last frame repeated) with its length
 // in Batch::frames: every term equals the loss of the unpadded clip (same words, same noise).
 TEST(HvrnnModel, ShortClipsPaddedToTheWindowScoreAsThemselves) {
