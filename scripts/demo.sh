@@ -33,9 +33,11 @@ if [ ! -f "$dataset/dataset.json" ]; then
 fi
 "$mosyn" data info "$dataset"
 
-model=models/moglow-locomotion
+# Offline sampling knows the whole path: the look-ahead MoGlow (crispest footsteps, styles recognised).
+# The live server steps frame by frame without the path ahead, so it runs a causal model.
+model=models/moglow-lookahead
 if [ -f "$model/checkpoint.pt" ]; then
-  echo "== mosyn sample: walks along one curved path from the shipped MoGlow model, in two styles"
+  echo "== mosyn sample: walks along one curved path from the shipped look-ahead MoGlow model, in two styles"
   for style in normal elderly; do
     "$mosyn" sample "$model" --out "$out/curve" --prefix "curve-$style" --n 2 --seed 1 \
       --path "0,0 0,3 2,5 5,5 7,3" --content walk --style "$style" --positions --format bvh,glb
