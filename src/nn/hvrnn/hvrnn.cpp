@@ -41,7 +41,10 @@ HvrnnImpl::HvrnnImpl(const HvrnnOptions& o, const ModelContext& context)
   const int w = word_dim(), s = o.state * o.state_layers, a = o.label_code, raw = o.word_length * frame_dim();
   if (o.word_coder) {
     word_encoder = register_module("word_encoder", HvrnnMlp(raw, o.word_hidden, 2, w, Out::kElu));
-    word_decoder = register_module("word_decoder", HvrnnMlp(w, o.word_hidden, 2, raw, Out::kNone));
+    // With decoder_previous_frame the previous frame and its flag follow the code (a warm start
+    // from a run without them grows these input weights with zeros).
+    const int previous = o.decoder_previous_frame ? frame_dim() + 1 : 0;
+    word_decoder = register_module("word_decoder", HvrnnMlp(w + previous, o.word_hidden, 2, raw, Out::kNone));
   }
   f_w = register_module("f_w", HvrnnMlp(w, o.feature_hidden, 2, o.feature, Out::kElu));
   f_z = register_module("f_z", HvrnnMlp(o.latent, o.feature_hidden, 2, o.feature, Out::kElu));
@@ -89,10 +92,58 @@ torch::Tensor HvrnnImpl::encode_words(const torch::Tensor& frames) {
   return options_.word_coder ? word_encoder->forward(raw) : raw;
 }
 
-torch::Tensor HvrnnImpl::decode_words(const torch::Tensor& words) {
+torch::Tensor HvrnnImpl::decode_words(const torch::Tensor& words, const torch::Tensor& previous) {
   const int64_t b = words.size(0), n = words.size(1);
-  auto raw = options_.word_coder ? word_decoder->forward(words) : words;
+  torch::Tensor raw = words;
+  if (options_.word_coder) {
+    auto in = words;
+    if (options_.decoder_previous_frame) {
+      if (!previous.defined() || previous.sizes() != at::IntArrayRef({b, n, frame_dim() + 1}))
+        throw Error("hvrnn: decode_words needs previous frames [B, N, F + 1]");
+      in = torch::cat({words, previous.to(words.options())}, -1);
+    }
+    raw = word_decoder->forward(in);
+  }
   return raw.reshape({b, n * options_.word_length, frame_dim()});
+}
+
+torch::Tensor HvrnnImpl::teacher_previous(const torch::Tensor& frames) const {
+  const int64_t b = frames.size(0), l = options_.word_length, n = frames.size(1) / l;
+  auto none = torch::zeros({b, 1, frame_dim() + 1}, frames.options());
+  if (n < 2) return none;
+  // The last frame of words 0..n-2, each with the flag 1.
+  auto last = frames.narrow(1, 0, (n - 1) * l).reshape({b, n - 1, l, frame_dim()}).select(2, l - 1);
+  return torch::cat({none, torch::cat({last, torch::ones({b, n - 1, 1}, frames.options())}, -1)}, 1);
+}
+
+torch::Tensor HvrnnImpl::decode_generated(const torch::Tensor& words, const torch::Tensor& first_previous) {
+  if (!options_.decoder_previous_frame) return normalise_rotations(decode_words(words));
+  const int64_t b = words.size(0), n = words.size(1);
+  auto previous = first_previous;
+  std::vector<torch::Tensor> out;
+  for (int64_t i = 0; i < n; ++i) {
+    auto frames = normalise_rotations(decode_words(words.narrow(1, i, 1), previous.unsqueeze(1)));  // [B, l, F]
+    previous = torch::cat({frames.select(1, options_.word_length - 1), torch::ones({b, 1}, frames.options())}, -1);
+    out.push_back(frames);
+  }
+  return torch::cat(out, 1);
+}
+
+torch::Tensor HvrnnImpl::prefix_previous(const SampleRequest& request, int64_t b) {
+  auto opts = init_mean.options();
+  const int64_t d = context_.pose_dim, c = context_.control_dim;
+  const auto& pre = request.prefix_pose;
+  if (!pre.defined() || pre.size(1) == 0) return torch::zeros({b, d + c + 1}, opts);
+  if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
+    throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
+  const int64_t p = pre.size(1);
+  auto ctrl = torch::zeros({b, c}, opts);
+  if (request.prefix_control.defined()) {
+    if (request.prefix_control.sizes() != at::IntArrayRef({b, p, c}))
+      throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
+    ctrl = request.prefix_control.to(opts).select(1, p - 1);
+  }
+  return torch::cat({pre.to(opts).select(1, p - 1), ctrl, torch::ones({b, 1}, opts)}, -1);
 }
 
 torch::Tensor HvrnnImpl::label_code(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
@@ -262,7 +313,7 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   const double p_drop = is_training() ? current_word_drop() : 0.0;
   if (p_drop > 0) drop = (torch::rand({b, n}) < p_drop).to(pose.device());
   auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr);
-  auto pred = decode_words(u.out);
+  auto pred = decode_words(u.out, options_.decoder_previous_frame ? teacher_previous(frames) : torch::Tensor());
   auto r = reconstruction(pred, frames);
   auto valid = mask.sum();
   auto recon = (r.recon * mask).sum() / valid;
@@ -336,7 +387,7 @@ SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
   auto words = prefix_words(request, b);
   const int64_t k = words.defined() ? words.size(1) : 0, n_gen = (t + l - 1) / l;
   auto u = unroll(words, {}, k + n_gen, h0, a, request.temperature, &gen);
-  auto x = normalise_rotations(decode_words(u.out.narrow(1, k, n_gen)).narrow(1, 0, t));
+  auto x = decode_generated(u.out.narrow(1, k, n_gen), prefix_previous(request, b)).narrow(1, 0, t);
   return {x.narrow(-1, 0, d).contiguous(), x.narrow(-1, d, c).contiguous()};
 }
 
@@ -348,6 +399,7 @@ struct HvrnnStream : StreamState {
   std::vector<torch::Tensor> hs;
   torch::Tensor a;
   torch::Tensor frames;  // [B, l, F] the current word's frames (undefined before the first)
+  torch::Tensor previous;  // [B, F + 1] the frame before the next word and a 1, or zeros
   int64_t next = 0;      // index of the next frame in `frames`
   double temperature = 1.0;
 };
@@ -370,6 +422,7 @@ std::unique_ptr<StreamState> HvrnnImpl::begin_stream(const SampleRequest& reques
   auto words = prefix_words(request, b);  // the same draws, in the same order, as sample()
   for (int64_t i = 0; words.defined() && i < words.size(1); ++i)
     cell_step(s->hs, words.select(1, i), {}, s->a, s->temperature, &s->gen, nullptr);
+  s->previous = prefix_previous(request, b);
   s->next = options_.word_length;
   return s;
 }
@@ -380,7 +433,9 @@ StreamFrame HvrnnImpl::step_stream(StreamState& state, const torch::Tensor&) {
   if (!s) throw Error("hvrnn: step_stream needs a stream from this family's begin_stream");
   if (s->next >= options_.word_length) {
     auto word = cell_step(s->hs, {}, {}, s->a, s->temperature, &s->gen, nullptr);
-    s->frames = normalise_rotations(decode_words(word.unsqueeze(1)));
+    s->frames = decode_generated(word.unsqueeze(1), s->previous);
+    const int64_t b = s->frames.size(0);
+    s->previous = torch::cat({s->frames.select(1, options_.word_length - 1), torch::ones({b, 1}, s->frames.options())}, -1);
     s->next = 0;
   }
   auto f = s->frames.select(1, s->next++);

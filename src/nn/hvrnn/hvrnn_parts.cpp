@@ -46,6 +46,8 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
                  at_least(0.0))
           .field("velocity_weight", &O::velocity_weight, "weight of the frame-to-frame velocity error",
                  at_least(0.0))
+          .field("decoder_previous_frame", &O::decoder_previous_frame,
+                 "the word decoder also sees the frame before its word")
           .field("validity_weight", &O::validity_weight, "lambda_Ang, 6D validity penalty", at_least(0.0))
           .field("classifier_run", &O::classifier_run, "trained classifier run for the classifier loss (\"\" = off)")
           .field("classifier_weight", &O::classifier_weight, "lambda_CL after its ramp", at_least(0.0))
@@ -57,6 +59,9 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
           .field("word_drop_ramp", &O::word_drop_ramp, "fraction over which the drop rate grows",
                  in_range(0.0, 1.0))
           .field("spread_floor", &O::spread_floor, "added to every softplus spread", at_least(0.0))
+          .rule([](const O& o) {
+            return o.decoder_previous_frame && !o.word_coder ? "decoder_previous_frame needs the word coder" : "";
+          })
           .rule([](const O& o) {
             return o.kl_warmup + o.kl_anneal > 1.0 + 1e-9 ? "kl_warmup + kl_anneal must be at most 1" : "";
           });

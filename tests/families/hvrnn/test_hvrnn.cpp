@@ -363,6 +363,57 @@ TEST(HvrnnModel, StreamsWordByWordAsSampleDoes) {
   }
 }
 
+// decoder_previous_frame: the teacher-forced previous frames by hand, a warm start with zero
+// weights on the new inputs reproducing the model without them, and streaming equal to sample().
+TEST(HvrnnModel, DecoderSeesThePreviousFrame) {
+  EXPECT_THROW(HvrnnOptions::from_json(tiny({{"preset", "SL"}, {"decoder_previous_frame", true}})), Error);
+  torch::manual_seed(12);
+  HvrnnImpl plain(HvrnnOptions::from_json(tiny()), rotations_context());
+  HvrnnImpl with(HvrnnOptions::from_json(tiny({{"decoder_previous_frame", true}})), rotations_context());
+  plain.eval();
+  with.eval();
+  const int64_t f = 25 + 3;
+  auto frames = torch::randn({2, 9, f});
+  auto prev = with.teacher_previous(frames);
+  ASSERT_EQ(prev.sizes(), (std::vector<int64_t>{2, 3, f + 1}));
+  EXPECT_EQ(prev.select(1, 0).abs().sum().item<double>(), 0.0);
+  for (int64_t n = 1; n < 3; ++n) {
+    EXPECT_TRUE(torch::equal(prev.select(1, n).narrow(-1, 0, f), frames.select(1, 3 * n - 1))) << n;
+    EXPECT_EQ(prev.select(1, n)[0][f].item<double>(), 1.0);
+  }
+  // Copy the plain model into the wider one, the new input weights zero (what --init-from does).
+  {
+    torch::NoGradGuard no_grad;
+    auto src = plain.named_parameters(), dst = with.named_parameters();
+    for (auto& kv : src) {
+      auto& t = dst[kv.key()];
+      t.zero_();
+      t.narrow(-1, 0, kv.value().size(-1)).copy_(kv.value());
+    }
+  }
+  Batch x = rotation_batch(2, 8);
+  torch::manual_seed(3);
+  const double a = plain.loss(x).terms.at("loss").item<double>();
+  torch::manual_seed(3);
+  EXPECT_NEAR(with.loss(x).terms.at("loss").item<double>(), a, 1e-5);
+  SampleRequest r = request(2, 8, 5);
+  r.prefix_pose = rotation_batch(2, 2).pose;  // shorter than a word: only its last frame is used
+  EXPECT_TRUE(torch::allclose(with.sample(r).pose, plain.sample(r).pose, 1e-5, 1e-5));
+  // Non-zero weights on the previous frame: the prefix's last frame now shapes the first word, and
+  // the stream decodes word by word exactly as sample() does.
+  {
+    torch::NoGradGuard no_grad;
+    with.word_decoder->layers[0]->as<torch::nn::LinearImpl>()->weight.narrow(1, 8, f + 1).normal_(0, 0.5);
+  }
+  const SampleOutput offline = with.sample(r);
+  EXPECT_FALSE(torch::allclose(offline.pose, plain.sample(r).pose, 1e-3, 1e-3));
+  auto stream = with.begin_stream(r);
+  for (int64_t t = 0; t < 8; ++t) {
+    const StreamFrame fr = with.step_stream(*stream, {});
+    EXPECT_TRUE(torch::allclose(fr.pose, offline.pose.select(1, t), 1e-5, 1e-5)) << t;
+  }
+}
+
 TEST(HvrnnPresets, AblationsBuildAndTrain) {
   const auto sl = HvrnnOptions::from_json({{"preset", "SL"}});
   EXPECT_FALSE(sl.word_coder);
