@@ -168,7 +168,7 @@ torch::Tensor HvrnnImpl::initial_state(const torch::Tensor& content, const torch
 
 torch::Tensor HvrnnImpl::cell_step(std::vector<torch::Tensor>& hs, const torch::Tensor& word,
                                    const torch::Tensor& drop, const torch::Tensor& a, double temperature,
-                                   at::Generator* gen, torch::Tensor* kl) {
+                                   at::Generator* gen, torch::Tensor* kl, torch::Tensor* prior_word) {
   const double floor = options_.spread_floor;
   auto h = torch::cat(hs, -1);
   auto prior_in = torch::cat({h, a}, -1);
@@ -180,6 +180,10 @@ torch::Tensor HvrnnImpl::cell_step(std::vector<torch::Tensor>& hs, const torch::
     auto mq = post_mu->forward(post_in), sq = post_sigma->forward(post_in) + floor;
     z = mq + temperature * sq * draw(mq.sizes(), mq.options(), gen);
     if (kl) *kl = hvrnn::gaussian_kl(mq, sq, mp, sp);
+    if (prior_word) {
+      auto zp = mp + temperature * sp * draw(mp.sizes(), mp.options(), gen);
+      *prior_word = f_dec->forward(torch::cat({f_z->forward(zp), h, a}, -1));
+    }
   } else {  // Alg. 2: the prior
     z = mp + temperature * sp * draw(mp.sizes(), mp.options(), gen);
   }
@@ -200,21 +204,23 @@ torch::Tensor HvrnnImpl::cell_step(std::vector<torch::Tensor>& hs, const torch::
 
 HvrnnImpl::Unroll HvrnnImpl::unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n,
                                     const torch::Tensor& h0, const torch::Tensor& a, double temperature,
-                                    at::Generator* gen) {
+                                    at::Generator* gen, bool with_prior) {
   const int64_t k = words.defined() ? words.size(1) : 0;
   std::vector<torch::Tensor> hs = h0.chunk(options_.state_layers, -1);
-  std::vector<torch::Tensor> outs, kls;
+  std::vector<torch::Tensor> outs, kls, priors;
   for (int64_t i = 0; i < n; ++i) {
-    torch::Tensor kl;
+    torch::Tensor kl, prior;
     const bool teacher = i < k;
     outs.push_back(cell_step(hs, teacher ? words.select(1, i) : torch::Tensor(),
                              teacher && drop.defined() ? drop.select(1, i) : torch::Tensor(), a, temperature, gen,
-                             teacher ? &kl : nullptr));
+                             teacher ? &kl : nullptr, teacher && with_prior ? &prior : nullptr));
     if (teacher) kls.push_back(kl);
+    if (prior.defined()) priors.push_back(prior);
   }
   Unroll u;
   u.out = torch::stack(outs, 1);
   if (!kls.empty()) u.kl = torch::stack(kls, 1);
+  if (!priors.empty()) u.prior = torch::stack(priors, 1);
   return u;
 }
 
@@ -312,8 +318,10 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   torch::Tensor drop;
   const double p_drop = is_training() ? current_word_drop() : 0.0;
   if (p_drop > 0) drop = (torch::rand({b, n}) < p_drop).to(pose.device());
-  auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr);
-  auto pred = decode_words(u.out, options_.decoder_previous_frame ? teacher_previous(frames) : torch::Tensor());
+  const bool boundary = options_.boundary_weight > 0 && n > 1;
+  auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr, boundary);
+  auto previous = options_.decoder_previous_frame ? teacher_previous(frames) : torch::Tensor();
+  auto pred = decode_words(u.out, previous);
   auto r = reconstruction(pred, frames);
   auto valid = mask.sum();
   auto recon = (r.recon * mask).sum() / valid;
@@ -323,6 +331,18 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
   auto kl_loss = options_.kl_free_nats > 0 ? torch::clamp_min(kl, options_.kl_free_nats) : kl;
   auto total = recon + w_kl * kl_loss + options_.validity_weight * validity;
+  torch::Tensor boundary_error = torch::zeros({}, total.options());
+  if (boundary) {
+    // The first frame of words 1..n-1 decoded from a prior draw, against the real first frame.
+    auto first = [&](const torch::Tensor& x) {
+      return x.reshape({b, n, l, frame_dim()}).select(2, 0).narrow(1, 1, n - 1);
+    };
+    auto prior_frames = decode_words(u.prior, previous);
+    auto r_first = reconstruction(first(prior_frames), first(frames));
+    auto first_mask = word_mask.narrow(1, 1, n - 1);
+    boundary_error = (r_first.recon * first_mask).sum() / first_mask.sum().clamp_min(1.0);
+    total = total + options_.boundary_weight * boundary_error;
+  }
   auto velocity = hvrnn::velocity_error(pred, frames, mask);
   if (options_.velocity_weight > 0) total = total + options_.velocity_weight * velocity;
   torch::Tensor cl = torch::zeros({}, total.options());
@@ -342,6 +362,7 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   terms.terms["kl"] = kl.detach();
   terms.terms["validity"] = validity.detach();
   terms.terms["velocity"] = velocity.detach();
+  if (options_.boundary_weight > 0) terms.terms["boundary"] = boundary_error.detach();
   terms.terms["classifier"] = cl.detach();
   terms.terms["geodesic"] = ((r.geodesic * mask).sum() / valid).detach();
   terms.terms["kl_weight"] = torch::full({}, w_kl);

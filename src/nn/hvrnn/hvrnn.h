@@ -72,6 +72,12 @@ struct HvrnnOptions {
   // Warm starts from a run without it (--init-from) grow the decoder's first layer with zero
   // weights, so training begins from the old model. Needs word_coder.
   bool decoder_previous_frame = false;
+  // Boundary term (not in the paper): in training each word n > 0 is decoded a second time from a
+  // latent drawn from the prior (as generation does) and the reconstruction error of its first
+  // frame enters the loss with this weight. Teacher-forced words come from the posterior, so the
+  // other terms never see the words generation makes; their first frame, one frame after a known
+  // one, should still continue it. 0 = the paper.
+  double boundary_weight = 0.0;
   double validity_weight = 0.1;  // lambda_Ang (Eq. 25 for 6D: ||A^T A - I||^2 before Gram-Schmidt)
   std::string classifier_run;    // run directory of a trained classifier for Eq. 24 ("" = term off)
   double classifier_weight = 0.1;       // lambda_CL at the end of its ramp
@@ -162,17 +168,21 @@ class HvrnnImpl : public MotionModel {
   // undefined for K = 0); drop [B, K] bool (a dropped word feeds the cell's own output to the
   // state); h0 [B, S]; a [B, Da]. Draws noise from gen (nullptr = default generator).
   struct Unroll {
-    torch::Tensor out;  // [B, N, W] reconstructed / generated words
-    torch::Tensor kl;   // [B, K] KL(q || p) of the teacher-forced words (undefined if K = 0)
+    torch::Tensor out;    // [B, N, W] reconstructed / generated words
+    torch::Tensor kl;     // [B, K] KL(q || p) of the teacher-forced words (undefined if K = 0)
+    torch::Tensor prior;  // [B, K, W] the teacher-forced words decoded from a prior draw (with_prior)
   };
   Unroll unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n, const torch::Tensor& h0,
-                const torch::Tensor& a, double temperature, at::Generator* gen);
+                const torch::Tensor& a, double temperature, at::Generator* gen, bool with_prior = false);
 
   // One motion-cell step on the state hs (updated): word [B, W] observed (Alg. 1; *kl receives
   // KL(q || p) [B] when kl is given) or undefined (Alg. 2, the prior). drop [B] bool (optional):
-  // rows whose state update takes the cell's own output instead of the word. Returns w~ [B, W].
+  // rows whose state update takes the cell's own output instead of the word. *prior_word (when
+  // given with a word) receives the word decoded from a prior draw instead [B, W]; it does not
+  // enter the state. Returns w~ [B, W].
   torch::Tensor cell_step(std::vector<torch::Tensor>& hs, const torch::Tensor& word, const torch::Tensor& drop,
-                          const torch::Tensor& a, double temperature, at::Generator* gen, torch::Tensor* kl);
+                          const torch::Tensor& a, double temperature, at::Generator* gen, torch::Tensor* kl,
+                          torch::Tensor* prior_word = nullptr);
   // The request's prefix as the whole words ending at its last frame [B, K, W] (undefined: none).
   torch::Tensor prefix_words(const SampleRequest& request, int64_t b);
   // frames [B, N l, F] -> words [B, N, W].

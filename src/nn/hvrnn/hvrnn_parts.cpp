@@ -48,6 +48,8 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
                  at_least(0.0))
           .field("decoder_previous_frame", &O::decoder_previous_frame,
                  "the word decoder also sees the frame before its word")
+          .field("boundary_weight", &O::boundary_weight,
+                 "weight of the first-frame error of words decoded from a prior draw", at_least(0.0))
           .field("validity_weight", &O::validity_weight, "lambda_Ang, 6D validity penalty", at_least(0.0))
           .field("classifier_run", &O::classifier_run, "trained classifier run for the classifier loss (\"\" = off)")
           .field("classifier_weight", &O::classifier_weight, "lambda_CL after its ramp", at_least(0.0))

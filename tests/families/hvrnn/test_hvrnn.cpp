@@ -414,6 +414,34 @@ TEST(HvrnnModel, DecoderSeesThePreviousFrame) {
   }
 }
 
+// boundary_weight: the term enters the loss with its weight, and it is what trains the prior when
+// the KL is off (without it the prior networks get no gradient at all).
+TEST(HvrnnLoss, BoundaryTermTrainsThePriorPath) {
+  for (double w : {0.0, 2.0}) {
+    torch::manual_seed(14);
+    HvrnnImpl m(HvrnnOptions::from_json(
+                    tiny({{"kl_weight", 0.0}, {"validity_weight", 0.0}, {"boundary_weight", w},
+                          {"decoder_previous_frame", true}})),
+                rotations_context());
+    m.eval();
+    const LossTerms t = m.loss(rotation_batch(2, 9));
+    m.zero_grad();
+    t.terms.at("loss").backward();
+    const double prior_grad = m.prior_mu->layers[0]->as<torch::nn::LinearImpl>()->weight.grad().defined()
+                                  ? m.prior_mu->layers[0]->as<torch::nn::LinearImpl>()->weight.grad().abs().sum().item<double>()
+                                  : 0.0;
+    if (w == 0) {
+      EXPECT_EQ(t.terms.count("boundary"), 0u);
+      EXPECT_EQ(prior_grad, 0.0);
+      continue;
+    }
+    const double boundary = t.terms.at("boundary").item<double>();
+    EXPECT_GT(boundary, 0.0);
+    EXPECT_NEAR(t.terms.at("loss").item<double>(), t.terms.at("recon").item<double>() + w * boundary, 1e-4);
+    EXPECT_GT(prior_grad, 0.0);
+  }
+}
+
 TEST(HvrnnPresets, AblationsBuildAndTrain) {
   const auto sl = HvrnnOptions::from_json({{"preset", "SL"}});
   EXPECT_FALSE(sl.word_coder);
