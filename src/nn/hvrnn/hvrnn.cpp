@@ -25,6 +25,13 @@ double ramp(double progress, double start, double length) {
 }
 
 // [B, T, F] -> [B, ceil(T / l) l, F] repeating the last frame.
+// [..., F] -> [..., F + 1]: a frame with the flag 1 (decoder_previous_frame's input).
+torch::Tensor with_flag(const torch::Tensor& frame) {
+  auto shape = frame.sizes().vec();
+  shape.back() = 1;
+  return torch::cat({frame, torch::ones(shape, frame.options())}, -1);
+}
+
 torch::Tensor pad_to_words(const torch::Tensor& x, int64_t l) {
   const int64_t t = x.size(1), padded = (t + l - 1) / l * l;
   if (padded == t) return x;
@@ -113,37 +120,24 @@ torch::Tensor HvrnnImpl::teacher_previous(const torch::Tensor& frames) const {
   if (n < 2) return none;
   // The last frame of words 0..n-2, each with the flag 1.
   auto last = frames.narrow(1, 0, (n - 1) * l).reshape({b, n - 1, l, frame_dim()}).select(2, l - 1);
-  return torch::cat({none, torch::cat({last, torch::ones({b, n - 1, 1}, frames.options())}, -1)}, 1);
+  return torch::cat({none, with_flag(last)}, 1);
 }
 
-torch::Tensor HvrnnImpl::decode_generated(const torch::Tensor& words, const torch::Tensor& first_previous) {
+torch::Tensor HvrnnImpl::decode_generated(const torch::Tensor& words, torch::Tensor* previous) {
   if (!options_.decoder_previous_frame) return normalise_rotations(decode_words(words));
-  const int64_t b = words.size(0), n = words.size(1);
-  auto previous = first_previous;
   std::vector<torch::Tensor> out;
-  for (int64_t i = 0; i < n; ++i) {
-    auto frames = normalise_rotations(decode_words(words.narrow(1, i, 1), previous.unsqueeze(1)));  // [B, l, F]
-    previous = torch::cat({frames.select(1, options_.word_length - 1), torch::ones({b, 1}, frames.options())}, -1);
+  for (int64_t i = 0; i < words.size(1); ++i) {
+    auto frames = normalise_rotations(decode_words(words.narrow(1, i, 1), previous->unsqueeze(1)));  // [B, l, F]
+    *previous = with_flag(frames.select(1, options_.word_length - 1));
     out.push_back(frames);
   }
   return torch::cat(out, 1);
 }
 
 torch::Tensor HvrnnImpl::prefix_previous(const SampleRequest& request, int64_t b) {
-  auto opts = init_mean.options();
-  const int64_t d = context_.pose_dim, c = context_.control_dim;
-  const auto& pre = request.prefix_pose;
-  if (!pre.defined() || pre.size(1) == 0) return torch::zeros({b, d + c + 1}, opts);
-  if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
-    throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
-  const int64_t p = pre.size(1);
-  auto ctrl = torch::zeros({b, c}, opts);
-  if (request.prefix_control.defined()) {
-    if (request.prefix_control.sizes() != at::IntArrayRef({b, p, c}))
-      throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
-    ctrl = request.prefix_control.to(opts).select(1, p - 1);
-  }
-  return torch::cat({pre.to(opts).select(1, p - 1), ctrl, torch::ones({b, 1}, opts)}, -1);
+  auto frames = prefix_frames(request, b);
+  if (!frames.defined()) return torch::zeros({b, frame_dim() + 1}, init_mean.options());
+  return with_flag(frames.select(1, frames.size(1) - 1));
 }
 
 torch::Tensor HvrnnImpl::label_code(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
@@ -379,19 +373,26 @@ ModelTraits HvrnnImpl::traits() const {
   return t;
 }
 
-torch::Tensor HvrnnImpl::prefix_words(const SampleRequest& request, int64_t b) {
-  const int64_t d = context_.pose_dim, c = context_.control_dim, l = options_.word_length;
-  const int64_t p = request.prefix_pose.defined() ? request.prefix_pose.size(1) : 0;
-  if (p < l) return {};  // no whole word to continue
-  auto opts = init_mean.options();
+torch::Tensor HvrnnImpl::prefix_frames(const SampleRequest& request, int64_t b) {
+  const int64_t d = context_.pose_dim, c = context_.control_dim;
   const auto& pre = request.prefix_pose;
+  if (!pre.defined() || (pre.dim() == 3 && pre.size(1) == 0)) return {};
   if (pre.dim() != 3 || pre.size(0) != b || pre.size(2) != d)
     throw Error("sample request: prefix_pose must be [" + std::to_string(b) + ", P, " + std::to_string(d) + "]");
+  auto opts = init_mean.options();
+  const int64_t p = pre.size(1);
   auto pre_ctrl = request.prefix_control.defined() ? request.prefix_control.to(opts) : torch::zeros({b, p, c}, opts);
   if (pre_ctrl.sizes() != at::IntArrayRef({b, p, c}))
     throw Error("sample request: prefix_control must be [B, P, " + std::to_string(c) + "] matching prefix_pose");
+  return torch::cat({pre.to(opts), pre_ctrl}, -1);
+}
+
+torch::Tensor HvrnnImpl::prefix_words(const SampleRequest& request, int64_t b) {
+  auto frames = prefix_frames(request, b);
+  const int64_t l = options_.word_length, p = frames.defined() ? frames.size(1) : 0;
+  if (p < l) return {};  // no whole word to continue
   const int64_t k = p / l;  // whole words ending at the prefix's last frame
-  return encode_words(torch::cat({pre.to(opts), pre_ctrl}, -1).narrow(1, p - k * l, k * l));
+  return encode_words(frames.narrow(1, p - k * l, k * l));
 }
 
 SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
@@ -408,7 +409,8 @@ SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
   auto words = prefix_words(request, b);
   const int64_t k = words.defined() ? words.size(1) : 0, n_gen = (t + l - 1) / l;
   auto u = unroll(words, {}, k + n_gen, h0, a, request.temperature, &gen);
-  auto x = decode_generated(u.out.narrow(1, k, n_gen), prefix_previous(request, b)).narrow(1, 0, t);
+  auto previous = prefix_previous(request, b);
+  auto x = decode_generated(u.out.narrow(1, k, n_gen), &previous).narrow(1, 0, t);
   return {x.narrow(-1, 0, d).contiguous(), x.narrow(-1, d, c).contiguous()};
 }
 
@@ -454,9 +456,7 @@ StreamFrame HvrnnImpl::step_stream(StreamState& state, const torch::Tensor&) {
   if (!s) throw Error("hvrnn: step_stream needs a stream from this family's begin_stream");
   if (s->next >= options_.word_length) {
     auto word = cell_step(s->hs, {}, {}, s->a, s->temperature, &s->gen, nullptr);
-    s->frames = decode_generated(word.unsqueeze(1), s->previous);
-    const int64_t b = s->frames.size(0);
-    s->previous = torch::cat({s->frames.select(1, options_.word_length - 1), torch::ones({b, 1}, s->frames.options())}, -1);
+    s->frames = decode_generated(word.unsqueeze(1), &s->previous);
     s->next = 0;
   }
   auto f = s->frames.select(1, s->next++);

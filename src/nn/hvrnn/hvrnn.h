@@ -194,9 +194,12 @@ class HvrnnImpl : public MotionModel {
   // > 0 getting [frame n l - 1, 1], word 0 zeros.
   torch::Tensor teacher_previous(const torch::Tensor& frames) const;
   // Generated words [B, N, W] -> frames [B, N l, F] with rotations re-normalised, word by word
-  // when the decoder sees the previous frame (first_previous [B, F + 1] for the first word: the
-  // prefix's last frame and a 1, or zeros).
-  torch::Tensor decode_generated(const torch::Tensor& words, const torch::Tensor& first_previous);
+  // when the decoder sees the previous frame: *previous [B, F + 1] comes in as the first word's
+  // (the prefix's last frame and a 1, or zeros) and leaves as the next word's (unused otherwise).
+  torch::Tensor decode_generated(const torch::Tensor& words, torch::Tensor* previous);
+  // The request's prefix as standardised frames [B, P, F] (control zeros when not given), checked;
+  // undefined without a prefix.
+  torch::Tensor prefix_frames(const SampleRequest& request, int64_t b);
   // [B, F + 1]: the request prefix's last standardised frame (pose, control or zeros) and a 1, or
   // zeros without a prefix.
   torch::Tensor prefix_previous(const SampleRequest& request, int64_t b);
