@@ -186,7 +186,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     ps_logvar.push_back(ps.logvar);
     state = dyn->step(state, s, f);
   }
-  auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts);
+  auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
   if (max_delta >= 1) {
     // One time difference per batch, uniform in 1..td_max (default CPU generator); every pair
@@ -204,7 +204,9 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     td_kl = diagonal_gaussian_kl(q.mean, q.logvar, PM.narrow(1, 0, n), PL.narrow(1, 0, n)).mean();
     auto dt = torch::full({b, n, 1}, static_cast<double>(delta) / options_.td_max, opts);
     auto p = DfnDynamicsImpl::split(dyn->td_p_net->forward(torch::cat({s1, dt}, -1)));
+    p.logvar = dyn->floor_observation_logvar(p.logvar);
     td_nll = -diagonal_gaussian_log_density(s2, p.mean, p.logvar).mean();
+    td_logvar = p.logvar.mean().detach();
   }
   const double per = 1.0 / static_cast<double>(l);
   auto nz = (nll_z * per).mean(), nm = (nll_m * per).mean(), ks = (kl_s * per).mean(), kf = (kl_f * per).mean();
@@ -221,6 +223,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   out.terms["kl_f"] = kf.detach();
   out.terms["td_kl"] = td_kl.detach();
   out.terms["td_nll"] = td_nll.detach();
+  out.terms["td_logvar"] = td_logvar;  // mean log-variance of the TD prediction, for the log
   return out;
 }
 

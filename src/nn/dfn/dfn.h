@@ -69,6 +69,11 @@ struct DfnOptions {
   // posterior onto its prior. 0 = the paper's plain KL. Against the collapse of s (KL 0.0015 nats
   // per frame after 1,480 steps in session 5), which leaves all diversity to f.
   double kl_free_nats = 0.0;
+  // Floor on the log-variances of Eq. 15's likelihood terms: p(z | s, h), p(m | f, h) and the
+  // TD prediction of s_t2 (its target detached). -8 = only the soft [-8, 8] bound. A variance
+  // that shrinks makes its term's gradient grow as 1 / variance; on Bandai-Namco the TD term
+  // rose from step 2,750 of session 12's run and the KL terms blew up 250 steps later.
+  double observation_logvar_min = -8.0;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when
@@ -158,11 +163,17 @@ class DfnDynamicsImpl : public torch::nn::Module {
   std::pair<torch::Tensor, torch::Tensor> step(const std::pair<torch::Tensor, torch::Tensor>& state,
                                                const torch::Tensor& s, const torch::Tensor& f);
   // log p(z | s, h) and log p(m | f, h): Gaussians with a learned per-dimension log-variance
-  // (bounded softly to [-8, 8]) around decode_z / decode_m, summed over the last dimension.
+  // (bounded softly to [-8, 8], then floored at observation_logvar_min) around decode_z /
+  // decode_m, summed over the last dimension.
   torch::Tensor log_p_z(const torch::Tensor& z, const torch::Tensor& s, const torch::Tensor& h);
   torch::Tensor log_p_m(const torch::Tensor& m, const torch::Tensor& f, const torch::Tensor& h);
   torch::nn::GRUCell gru1{nullptr}, gru2{nullptr};
   torch::Tensor z_logvar, m_logvar;  // parameters [code], [future]
+  // The bounded, floored log-variance of a raw parameter z_logvar or m_logvar.
+  torch::Tensor observation_logvar(const torch::Tensor& raw) const;
+  // logvar floored at observation_logvar_min (unchanged at the default -8).
+  torch::Tensor floor_observation_logvar(const torch::Tensor& logvar) const;
+  double observation_logvar_min_ = -8.0;
   torch::nn::Sequential prior_f_net{nullptr}, post_f_net{nullptr}, m_net{nullptr}, prior_s_net{nullptr},
       post_s_net{nullptr}, z_net{nullptr}, td_q_net{nullptr}, td_p_net{nullptr};
 };

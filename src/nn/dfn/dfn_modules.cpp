@@ -65,6 +65,8 @@ const OptionFields<DfnOptions>& dfn_fields() {
           .field("kl_weight", &O::kl_weight, "weight of the KL terms", at_least(0.0))
           .field("kl_free_nats", &O::kl_free_nats, "free nats per frame for each of the s and f KL terms",
                  at_least(0.0))
+          .field("observation_logvar_min", &O::observation_logvar_min,
+                 "floor on the log-variances of p(z | s, h), p(m | f, h) and the TD prediction (-8: none)", in_range(-8.0, 8.0))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")
@@ -290,16 +292,26 @@ DfnDynamicsImpl::DfnDynamicsImpl(const DfnOptions& o) {
   td_p_net = register_module("td_p", dfn_mlp(s + 1, o.td_hidden, 3, 2 * s, a));              // Eq. 14
   z_logvar = register_parameter("z_logvar", torch::zeros({z}));
   m_logvar = register_parameter("m_logvar", torch::zeros({m}));
+  observation_logvar_min_ = o.observation_logvar_min;
+}
+
+torch::Tensor DfnDynamicsImpl::observation_logvar(const torch::Tensor& raw) const {
+  return floor_observation_logvar(8.0 * torch::tanh(raw / 8.0));
+}
+
+torch::Tensor DfnDynamicsImpl::floor_observation_logvar(const torch::Tensor& logvar) const {
+  // Below the floor the clamp passes no gradient: the variance stops shrinking there.
+  return observation_logvar_min_ > -8.0 ? torch::clamp_min(logvar, observation_logvar_min_) : logvar;
 }
 
 torch::Tensor DfnDynamicsImpl::log_p_z(const torch::Tensor& z, const torch::Tensor& s, const torch::Tensor& h) {
   auto mean = decode_z(s, h);
-  return diagonal_gaussian_log_density(z, mean, (8.0 * torch::tanh(z_logvar / 8.0)).expand_as(mean));
+  return diagonal_gaussian_log_density(z, mean, observation_logvar(z_logvar).expand_as(mean));
 }
 
 torch::Tensor DfnDynamicsImpl::log_p_m(const torch::Tensor& m, const torch::Tensor& f, const torch::Tensor& h) {
   auto mean = decode_m(f, h);
-  return diagonal_gaussian_log_density(m, mean, (8.0 * torch::tanh(m_logvar / 8.0)).expand_as(mean));
+  return diagonal_gaussian_log_density(m, mean, observation_logvar(m_logvar).expand_as(mean));
 }
 
 DfnDynamicsImpl::Gaussian DfnDynamicsImpl::split(const torch::Tensor& x) {

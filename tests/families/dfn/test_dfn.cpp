@@ -407,6 +407,57 @@ TEST(Dfn, FreeNatsFloorEachKlTermInTheLoss) {
   }
 }
 
+TEST(Dfn, ObservationLogVarianceFloorBoundsTheCodeAndFutureTerms) {
+  // log p(z | s, h) by hand: -1/2 sum(log 2 pi + lv + (z - mean)^2 / e^lv), lv the floored
+  // variance; below the floor no gradient reaches the log-variance parameter.
+  auto config = tiny();
+  for (double floor : {-8.0, -1.0}) {
+    config["observation_logvar_min"] = floor;
+    const DfnOptions o = DfnOptions::from_json(config);
+    torch::manual_seed(2);
+    DfnDynamics dyn(o);
+    torch::NoGradGuard no_grad;
+    dyn->z_logvar.fill_(-20.0);
+    dyn->m_logvar.fill_(0.5);
+    torch::GradMode::set_enabled(true);
+    auto s = torch::randn({4, o.current_latent}), f = torch::randn({4, o.future_latent});
+    auto h = torch::randn({4, o.state}), z = torch::randn({4, o.code}), m = torch::randn({4, o.future});
+    const double lv_z = std::max(floor, 8.0 * std::tanh(-20.0 / 8.0)), lv_m = 8.0 * std::tanh(0.5 / 8.0);
+    auto by_hand = [](const torch::Tensor& x, const torch::Tensor& mean, double lv) {
+      return (-0.5 * (std::log(2 * M_PI) + lv + (x - mean).pow(2) / std::exp(lv))).sum(-1);
+    };
+    auto lpz = dyn->log_p_z(z, s, h), lpm = dyn->log_p_m(m, f, h);
+    EXPECT_TRUE(torch::allclose(lpz, by_hand(z, dyn->decode_z(s, h), lv_z), 1e-4, 1e-3)) << "floor " << floor;
+    EXPECT_TRUE(torch::allclose(lpm, by_hand(m, dyn->decode_m(f, h), lv_m), 1e-4, 1e-3)) << "floor " << floor;
+    (lpz.sum() + lpm.sum()).backward();
+    const double g_z = dyn->z_logvar.grad().abs().sum().item<double>();
+    if (floor > -8.0) {
+      EXPECT_EQ(g_z, 0.0);
+    } else {
+      EXPECT_GT(g_z, 0.0);
+    }
+    EXPECT_GT(dyn->m_logvar.grad().abs().sum().item<double>(), 0.0);  // above the floor: learns
+  }
+  // The TD prediction's log-variances (about 0 at initialisation) are floored in the loss too.
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  Batch b;
+  torch::manual_seed(4);
+  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
+  b.control = torch::randn({3, 14, 3}) * 0.3;
+  for (double floor : {-8.0, 2.0}) {
+    config["observation_logvar_min"] = floor;
+    auto m = make(c, config);
+    m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
+    torch::manual_seed(6);
+    const double td_logvar = m->loss(b).terms.at("td_logvar").item<double>();
+    if (floor > -8.0) {
+      EXPECT_NEAR(td_logvar, floor, 1e-6);
+    } else {
+      EXPECT_LT(std::abs(td_logvar), 1.0);
+    }
+  }
+}
+
 TEST(Dfn, InterruptedInTheSecondStageResumesExactly) {
   const auto ds = nn::testing::synthetic_dataset();
   const auto full = run_dir("full");
