@@ -71,8 +71,8 @@ struct DfnOptions {
   double kl_free_nats = 0.0;
   // Floor on the log-variances of Eq. 15's likelihood terms: p(z | s, h), p(m | f, h) and the
   // TD prediction of s_t2 (its target detached). -8 = only the soft [-8, 8] bound. A variance
-  // that shrinks makes its term's gradient grow as 1 / variance; on Bandai-Namco the TD term
-  // rose from step 2,750 of session 12's run and the KL terms blew up 250 steps later.
+  // that shrinks makes its term's gradient grow as 1 / variance. (Session 12's divergence on
+  // Bandai-Namco was not this: the variances stayed near e^-2; a lower lr cured it. README.)
   double observation_logvar_min = -8.0;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
