@@ -24,7 +24,6 @@ double ramp(double progress, double start, double length) {
   return std::clamp((progress - start) / length, 0.0, 1.0);
 }
 
-// [B, T, F] -> [B, ceil(T / l) l, F] repeating the last frame.
 // [..., F] -> [..., F + 1]: a frame with the flag 1 (decoder_previous_frame's input).
 torch::Tensor with_flag(const torch::Tensor& frame) {
   auto shape = frame.sizes().vec();
@@ -32,6 +31,7 @@ torch::Tensor with_flag(const torch::Tensor& frame) {
   return torch::cat({frame, torch::ones(shape, frame.options())}, -1);
 }
 
+// [B, T, F] -> [B, ceil(T / l) l, F] repeating the last frame.
 torch::Tensor pad_to_words(const torch::Tensor& x, int64_t l) {
   const int64_t t = x.size(1), padded = (t + l - 1) / l * l;
   if (padded == t) return x;

@@ -416,10 +416,11 @@ TEST(Dfn, ObservationLogVarianceFloorBoundsTheCodeAndFutureTerms) {
     const DfnOptions o = DfnOptions::from_json(config);
     torch::manual_seed(2);
     DfnDynamics dyn(o);
-    torch::NoGradGuard no_grad;
-    dyn->z_logvar.fill_(-20.0);
-    dyn->m_logvar.fill_(0.5);
-    torch::GradMode::set_enabled(true);
+    {
+      torch::NoGradGuard no_grad;
+      dyn->z_logvar.fill_(-20.0);
+      dyn->m_logvar.fill_(0.5);
+    }
     auto s = torch::randn({4, o.current_latent}), f = torch::randn({4, o.future_latent});
     auto h = torch::randn({4, o.state}), z = torch::randn({4, o.code}), m = torch::randn({4, o.future});
     const double lv_z = std::max(floor, 8.0 * std::tanh(-20.0 / 8.0)), lv_m = 8.0 * std::tanh(0.5 / 8.0);
