@@ -87,6 +87,14 @@ void add_data_commands(CLI::App& app, Action* action) {
       ->capture_default_str();
   prep->add_flag("--mirror", o.mirror, "add left/right mirrored copies (labels swapped accordingly)");
   prep->add_flag("--reverse", o.reverse, "add time-reversed copies");
+  prep->add_option("--retime", o.retime_factors,
+                   "add copies of every clip played this many times as fast, comma-separated (e.g. 1.2,1.4: walks "
+                   "faster than the takes; cadence scales, feet stay planted)")
+      ->delimiter(',');
+  prep->add_option("--stats-from", o.stats_from,
+                   "standardise with the stats.json of this dataset or run directory instead of this dataset's own "
+                   "(same features), so a model warm-started from that run keeps its input units")
+      ->check(CLI::ExistingDirectory);
   prep->add_option("--val", o.val_fraction, "fraction of files held out for validation")->capture_default_str();
   prep->add_option("--seed", o.seed, "seed of the train/validation split")->capture_default_str();
   prep->add_option("--contents", a->contents, "keep only these content labels, comma-separated (e.g. walk,run)");

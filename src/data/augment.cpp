@@ -218,6 +218,13 @@ Motion reverse_frames(const Motion& motion) {
   return out;
 }
 
+Motion retime(const Motion& motion, double factor) {
+  if (!(factor > 0) || !std::isfinite(factor)) throw Error("retime: the speed factor must be positive");
+  Motion faster = motion;
+  faster.fps = motion.fps * factor;  // the same frames, played at factor times the rate
+  return resample(faster, motion.fps);
+}
+
 MirrorPlan plan_mirror(const Skeleton& skeleton) {
   skeleton.validate();
   MirrorPlan plan;

@@ -1,5 +1,5 @@
 // Clip operations used while preparing a dataset: cleaning (static roots, converter T-poses,
-// joint subsets, frame rate) and augmentation (mirroring, time reversal). All work on
+// joint subsets, frame rate) and augmentation (mirroring, time reversal, retiming). All work on
 // mosyn::Clip in skeleton units and never change the skeleton's units or up axis.
 #pragma once
 
@@ -79,6 +79,13 @@ Motion resample(const Motion& motion, double fps_out);
 // Frames in reverse order (a walk played backwards). Features computed from the result have
 // consistent root deltas because they are recomputed from the reversed motion.
 Motion reverse_frames(const Motion& motion);
+
+// The motion played `factor` times as fast (factor > 1: faster, fewer frames), at its own frame
+// rate: frame k is the source at time k * factor / fps, resampled as `resample` does. Planted
+// feet stay planted, so a faster walk keeps clean contacts; its cadence scales with the speed
+// and the stride stays the same (real people lengthen both). Throws mosyn::Error unless factor
+// is positive and finite.
+Motion retime(const Motion& motion, double factor);
 
 // How a skeleton mirrors: the left/right partner of every joint (core/mirror.h mirror_map), the
 // world reflection axis (core default_mirror_axis: X for Y-up) and, per joint, the axis of the

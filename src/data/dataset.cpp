@@ -227,6 +227,8 @@ json info_to_json(const DatasetInfo& info) {
   j["source_dirs"] = info.source_dirs;
   j["source_layout"] = info.source_layout;
   j["augmentation"] = {{"mirror", info.augment_mirror}, {"reverse", info.augment_reverse}};
+  if (!info.augment_retime.empty()) j["augmentation"]["retime"] = info.augment_retime;
+  if (!info.stats_from.empty()) j["stats_from"] = info.stats_from;
   j["tpose"] = info.tpose;
   j["drop_joint_patterns"] = info.drop_joint_patterns;
   j["keep_joint_patterns"] = info.keep_joint_patterns;
@@ -276,8 +278,12 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
     if (!a.is_object()) throw ParseError(file, 0, "key \"augmentation\" must be an object");
     info.augment_mirror = optional_key(a, "mirror", false, file);
     info.augment_reverse = optional_key(a, "reverse", false, file);
+    info.augment_retime = optional_key(a, "retime", std::vector<double>{}, file);
+    for (double f : info.augment_retime)
+      if (!(f > 0) || !std::isfinite(f)) throw ParseError(file, 0, "augmentation.retime factors must be positive");
   }
   info.tpose = optional_key(j, "tpose", std::string("auto"), file);
+  info.stats_from = optional_key(j, "stats_from", std::string(), file);
   info.drop_joint_patterns = optional_key(j, "drop_joint_patterns", std::vector<std::string>{}, file);
   info.keep_joint_patterns = optional_key(j, "keep_joint_patterns", std::vector<std::string>{}, file);
   info.max_train_seconds = optional_key(j, "max_train_seconds", 0.0, file);
@@ -339,7 +345,7 @@ std::string format_clip_cache(const std::vector<ClipRecord>& clips, int pose_dim
     out += c.source;
     put<int32_t>(&out, c.content);
     put<int32_t>(&out, c.style);
-    put<uint8_t>(&out, static_cast<uint8_t>((c.mirrored ? 1 : 0) | (c.reversed ? 2 : 0)));
+    put<uint8_t>(&out, static_cast<uint8_t>((c.mirrored ? 1 : 0) | (c.reversed ? 2 : 0) | (c.retimed ? 4 : 0)));
     put<uint32_t>(&out, static_cast<uint32_t>(c.num_frames));
     out.append(reinterpret_cast<const char*>(c.pose.data()), c.pose.size() * sizeof(float));
     out.append(reinterpret_cast<const char*>(c.control.data()), c.control.size() * sizeof(float));
@@ -386,6 +392,7 @@ std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim,
     const uint8_t flags = r.get<uint8_t>("flags");
     c.mirrored = flags & 1;
     c.reversed = flags & 2;
+    c.retimed = flags & 4;
     c.num_frames = static_cast<int>(r.get<uint32_t>("frame count"));
     if (c.num_frames < 0) throw ParseError(file, 0, "clip " + std::to_string(i) + " has a bad frame count");
     r.get_floats(&c.pose, static_cast<uint64_t>(c.num_frames) * pose_dim, "pose data");
@@ -555,7 +562,13 @@ std::string dataset_summary(const Dataset& dataset) {
       << "\n";
   out << "window:      " << info.window_frames << " frames, hop " << info.window_hop << "\n";
   out << "augment:     mirror " << (info.augment_mirror ? "yes" : "no") << ", reverse "
-      << (info.augment_reverse ? "yes" : "no") << "\n";
+      << (info.augment_reverse ? "yes" : "no");
+  if (!info.augment_retime.empty()) {
+    out << ", retimed x";
+    for (size_t i = 0; i < info.augment_retime.size(); ++i) out << (i ? ", x" : "") << info.augment_retime[i];
+  }
+  out << "\n";
+  if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";
   for (const char* split : {"train", "val"}) {
     const std::vector<ClipRecord>& clips = dataset.clips(split);
     long long frames = 0;

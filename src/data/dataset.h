@@ -19,7 +19,7 @@
 //   num_clips times:
 //     u32 source length, bytes (UTF-8, no terminator)
 //     i32 content, i32 style     (-1 = unlabelled)
-//     u8  flags                  (bit 0 mirrored, bit 1 reversed)
+//     u8  flags                  (bit 0 mirrored, bit 1 reversed, bit 2 retimed)
 //     u32 num_frames
 //     f32 pose[num_frames * pose_dim], f32 control[num_frames * control_dim]
 //   u64      FNV-1a 64 hash of every byte before it
@@ -46,9 +46,13 @@ struct ClipRecord {
   int style = -1;           // index into DatasetInfo::style_labels, -1 if unlabelled
   bool mirrored = false;    // augmentation flags
   bool reversed = false;
+  bool retimed = false;     // played faster or slower (PrepareOptions::retime_factors)
   int num_frames = 0;
   std::vector<float> pose;     // [T, pose_dim]
   std::vector<float> control;  // [T, control_dim]
+
+  // A copy made by augmentation rather than a take as recorded.
+  bool augmented() const { return mirrored || reversed || retimed; }
 };
 
 // Smallest standard deviation stored (feature units: metres, radians, 6D components). Constant
@@ -90,6 +94,10 @@ struct DatasetInfo {
   std::string source_layout;              // "bandai-namco", "cmu", "plain" or "mixed"
   bool augment_mirror = false;            // mirrored copies of every clip are in the caches
   bool augment_reverse = false;           // time-reversed copies are in the caches
+  std::vector<double> augment_retime;     // playback-speed factors of the retimed copies (empty: none)
+  // Where stats.json came from when not computed on this dataset's training split
+  // (PrepareOptions::stats_from); empty otherwise.
+  std::string stats_from;
   std::string tpose = "auto";             // T-pose removal mode used (data/augment.h)
   std::vector<std::string> drop_joint_patterns, keep_joint_patterns;
   std::vector<std::string> source_joint_names;  // joints of the BVH files before any reduction

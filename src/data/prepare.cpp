@@ -130,6 +130,11 @@ void check_options(const PrepareOptions& o) {
   if (o.threads < 1) throw Error("prepare: threads must be at least 1");
   if (!(o.meters_per_unit >= 0) || !std::isfinite(o.meters_per_unit))
     throw Error("prepare: meters_per_unit must be 0 (guess) or positive");
+  if (!o.stats_from.empty() && !fs::exists(fs::path(o.stats_from) / "stats.json"))
+    throw Error(o.stats_from + ": no stats.json (stats_from takes a dataset or run directory)");
+  for (double f : o.retime_factors)
+    if (!(f > 0) || !std::isfinite(f) || std::abs(f - 1) < 1e-6)
+      throw Error("prepare: retime factors must be positive and not 1 (got " + std::to_string(f) + ")");
 }
 
 // Lists and filters every input; builds the shared vocabularies and the file items.
@@ -278,6 +283,7 @@ DatasetInfo describe_dataset(const PrepareOptions& o, DatasetInfo info, const Sk
   info.source_dir = join(o.input_dirs, ";");
   info.augment_mirror = o.mirror;
   info.augment_reverse = o.reverse;
+  info.augment_retime = o.retime_factors;
   info.tpose = to_string(o.tpose);
   info.drop_joint_patterns = o.drop_joint_patterns;
   info.keep_joint_patterns = o.keep_joint_patterns;
@@ -302,14 +308,17 @@ std::vector<bool> validation_files(int n, double val_fraction, uint64_t seed) {
   return is_val;
 }
 
-// Which augmented copies of each clip a dataset holds (PrepareOptions::mirror, ::reverse).
+// Which augmented copies of each clip a dataset holds (PrepareOptions::mirror, ::reverse,
+// ::retime_factors).
 struct Augmentation {
   bool mirror = false;
   bool reverse = false;
+  std::vector<double> retime;
 };
 
 // The feature records of one file's clip cut to keep_frames: the original, then its augmented
-// copies (mirrored with mirrored labels, reversed) next to it. Errors name the file.
+// copies (mirrored with mirrored labels, reversed, then each of those retimed) next to it.
+// Errors name the file.
 std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const DatasetInfo& info, const MirrorPlan& plan,
                                                  const Item& item, Clip clip, int keep_frames) {
   if (keep_frames < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames);
@@ -319,32 +328,52 @@ std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const Da
     return other >= 0 ? other : id;
   };
   std::vector<ClipRecord> records;
-  auto add = [&](const Motion& motion, bool mirrored, bool reversed) {
+  auto add = [&](const Motion& motion, bool mirrored, bool reversed, bool retimed) {
     ClipRecord r;
     r.source = item.source;
     r.content = mirrored ? mirrored_id(item.content, info.content_labels) : item.content;
     r.style = mirrored ? mirrored_id(item.style, info.style_labels) : item.style;
     r.mirrored = mirrored;
     r.reversed = reversed;
+    r.retimed = retimed;
     r.num_frames = motion.num_frames;
     encode(clip.skeleton, motion, info.layout, &r.pose, &r.control);
     records.push_back(std::move(r));
   };
   try {
-    add(clip.motion, false, false);
-    Motion mirrored;
-    if (o.mirror) {
-      mirrored = mirror(clip.skeleton, clip.motion, plan);
-      add(mirrored, true, false);
-    }
+    struct Copy {
+      Motion motion;
+      bool mirrored, reversed;
+    };
+    std::vector<Copy> copies = {{clip.motion, false, false}};
+    if (o.mirror) copies.push_back({mirror(clip.skeleton, clip.motion, plan), true, false});
     if (o.reverse) {
-      add(reverse_frames(clip.motion), false, true);
-      if (o.mirror) add(reverse_frames(mirrored), true, true);
+      const size_t base = copies.size();
+      for (size_t k = 0; k < base; ++k) copies.push_back({reverse_frames(copies[k].motion), copies[k].mirrored, true});
     }
+    for (const Copy& c : copies) add(c.motion, c.mirrored, c.reversed, false);
+    for (double factor : o.retime)
+      for (const Copy& c : copies) {
+        const Motion retimed = retime(c.motion, factor);
+        if (retimed.num_frames >= 2) add(retimed, c.mirrored, c.reversed, true);
+      }
   } catch (const Error& e) {
     throw Error(item.path + ": " + e.what());
   }
   return records;
+}
+
+// The statistics in dir/stats.json (a dataset or a run directory), checked against the layout.
+DatasetStats borrowed_stats(const std::string& dir, const FeatureLayout& layout) {
+  const std::string path = (fs::path(dir) / "stats.json").string();
+  if (!fs::exists(path)) throw Error(dir + ": no stats.json (stats_from takes a dataset or run directory)");
+  DatasetStats stats = stats_from_json(io::read_json(path), path);
+  if (static_cast<int>(stats.pose_mean.size()) != layout.pose_dim ||
+      static_cast<int>(stats.control_mean.size()) != layout.control_dim)
+    throw Error(path + ": statistics of dims (" + std::to_string(stats.pose_mean.size()) + ", " +
+                std::to_string(stats.control_mean.size()) + ") do not fit this dataset's features (" +
+                std::to_string(layout.pose_dim) + ", " + std::to_string(layout.control_dim) + ")");
+  return stats;
 }
 
 }  // namespace
@@ -395,7 +424,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
-  const Augmentation augmentation{o.mirror, o.reverse};
+  const Augmentation augmentation{o.mirror, o.reverse, o.retime_factors};
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {
@@ -407,7 +436,10 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   std::vector<ClipRecord> train, val;
   for (int i = 0; i < n; ++i)
     for (ClipRecord& r : records[i]) (is_val[i] ? val : train).push_back(std::move(r));
-  const DatasetStats stats = compute_stats(train, info.layout.pose_dim, info.layout.control_dim);
+  const DatasetStats stats = o.stats_from.empty()
+                                 ? compute_stats(train, info.layout.pose_dim, info.layout.control_dim)
+                                 : borrowed_stats(o.stats_from, info.layout);
+  info.stats_from = o.stats_from;
   write_dataset(o.output_dir, info, stats, train, val, o.overwrite);
   if (progress) {
     PrepareProgress p;

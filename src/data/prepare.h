@@ -46,6 +46,14 @@ struct PrepareOptions {
   int window_hop = 30;                  // frames between window starts
   bool mirror = false;                  // add mirrored copies (labels with left/right swapped)
   bool reverse = false;                 // add time-reversed copies (and of mirrored ones)
+  // Playback-speed factors of extra copies of every clip (and of its mirrored and reversed copies):
+  // 1.2 adds the clip played 1.2 times as fast (data/augment.h retime). Widens the speeds a
+  // model sees, e.g. walks up to 1.8 m/s where the takes stop at 1.6. Each factor positive, not 1.
+  std::vector<double> retime_factors;
+  // When set, a dataset or run directory whose stats.json standardises this dataset instead of its
+  // own training statistics (same pose and control dims), so that a model warm-started from that
+  // run (`train --init-from`) reads the new data in the units its weights were trained on.
+  std::string stats_from;
   double val_fraction = 0.1;            // fraction of files held out, in [0, 1)
   std::uint64_t seed = 0;               // split seed
   std::vector<std::string> contents;    // keep only these content labels (empty: all)

@@ -23,7 +23,7 @@ struct EvalOptions {
   double temperature = 1.0;      // latent standard-deviation multiplier
   double warmup_s = -1.0;        // synthesis: standing generated first and dropped (nn SampleExtras);
                                  // < 0 = the family's default_warmup_s() (MoGlow 1 s, rvae 0)
-  bool include_augmented = false;  // also evaluate mirrored / reversed copies in the split
+  bool include_augmented = false;  // also evaluate mirrored / reversed / retimed copies in the split
   // Joint-position errors against the held-out clip itself (Habibie et al. 2017, Tables 1-2),
   // at the times of `error_frames` counted at `error_frames_fps` (the paper: frames 70..210 of
   // 4-s clips at 60 Hz, i.e. 1.17..3.5 s), from a prior sample and from `initial_frames` real

@@ -33,7 +33,7 @@ EvalContext::EvalContext(const nn::LoadedRun& run, const data::Dataset& dataset,
   const auto& all = dataset.clips(o.split);
   std::vector<int> candidates;
   for (int i = 0; i < static_cast<int>(all.size()); ++i)
-    if (all[i].num_frames >= 2 && (o.include_augmented || (!all[i].mirrored && !all[i].reversed))) candidates.push_back(i);
+    if (all[i].num_frames >= 2 && (o.include_augmented || !all[i].augmented())) candidates.push_back(i);
   if (candidates.empty()) throw Error("evaluate: the '" + o.split + "' split has no clip to evaluate");
   const size_t n_clips = o.max_clips > 0 ? std::min<size_t>(o.max_clips, candidates.size()) : candidates.size();
   for (size_t i = 0; i < n_clips; ++i) chosen_.push_back(candidates[i * candidates.size() / n_clips]);

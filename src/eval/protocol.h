@@ -29,8 +29,9 @@ namespace mosyn::eval {
 // What the protocols of one evaluation share. Not thread-safe; lives for one evaluate() call.
 class EvalContext {
  public:
-  // Chooses the held-out clips: those of options.split with >= 2 frames (without mirrored /
-  // reversed copies unless include_augmented), at most max_clips evenly spread; decodes them.
+  // Chooses the held-out clips: those of options.split with >= 2 frames (without mirrored,
+  // reversed or retimed copies unless include_augmented), at most max_clips evenly spread;
+  // decodes them.
   // Throws mosyn::Error when the run has no motion model, the options are invalid, the dataset's
   // features do not match the run's, or the split has no clip.
   EvalContext(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& options,

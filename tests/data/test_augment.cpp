@@ -79,6 +79,30 @@ TEST(Augment, ReverseTwiceIsIdentityAndDeltasAreConsistent) {
   for (int t = 1; t < 40; ++t) EXPECT_LT(control[3 * t + 1], 0.0f);
 }
 
+// Played 1.5 times as fast: frame k is source frame 1.5 k (hand-interpolated between frames),
+// a third fewer frames, the same frame rate, and the walker's ground speed times 1.5.
+TEST(Augment, RetimePlaysFasterAtTheSameRate) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.speed_mps = 1.2;
+  const Motion m = make_synthetic_walk(s, 61, 30.0, o);
+  const Motion r = retime(m, 1.5);
+  EXPECT_DOUBLE_EQ(r.fps, 30.0);
+  EXPECT_EQ(r.num_frames, 41);  // frames 0, 1.5, ..., 60
+  EXPECT_NO_THROW(r.validate());
+  for (int k = 0; k < r.num_frames; k += 2)  // even k: exactly a source frame
+    for (int j = 0; j < s.num_joints(); ++j) EXPECT_LT(r.rotation(k, j).angularDistance(m.rotation(3 * k / 2, j)), 1e-9);
+  const Eigen::Vector3d mid = 0.5 * (m.translation(1, 0) + m.translation(2, 0));  // source time 1.5
+  EXPECT_LT((r.translation(1, 0) - mid).norm(), 1e-9);
+  const double source_speed = (m.translation(60, 0) - m.translation(0, 0)).norm() / 2.0;  // over 2 s
+  const double retimed_speed = (r.translation(40, 0) - r.translation(0, 0)).norm() / (40 / 30.0);
+  EXPECT_NEAR(retimed_speed / source_speed, 1.5, 1e-9);
+  // Slower: 0.5 doubles the frames.
+  EXPECT_EQ(retime(m, 0.5).num_frames, 121);
+  EXPECT_THROW(retime(m, 0.0), Error);
+  EXPECT_THROW(retime(m, std::nan("")), Error);
+}
+
 TEST(Augment, ResampleHalvesFramesAndInterpolates) {
   const Skeleton s = make_synthetic_biped();
   const Motion m = make_synthetic_walk(s, 121, 120.0);

@@ -189,6 +189,59 @@ TEST(Prepare, MaxTrainSecondsCutsTheTrainingSplit) {
   fs::remove_all(out);
 }
 
+// Retimed copies sit after the original and its mirror, flagged, with the frames and root speed
+// of the faster playback; evaluation's "take as recorded" skips them; the factors are recorded.
+// stats_from standardises with another directory's statistics instead of the dataset's own.
+TEST(Prepare, RetimedCopiesAndBorrowedStats) {
+  const fs::path out = temp_path("retime"), plain_dir = temp_path("retime_plain");
+  fs::remove_all(out);
+  fs::remove_all(plain_dir);
+  PrepareOptions o = basic_options(plain_dir.string());
+  o.mirror = true;
+  prepare_dataset(o);
+  const Dataset plain = Dataset::open(plain_dir.string());
+  o.output_dir = out.string();
+  o.retime_factors = {1.5};
+  o.stats_from = plain_dir.string();
+  prepare_dataset(o);
+  const Dataset ds = Dataset::open(out.string());
+  EXPECT_EQ(ds.info().augment_retime, std::vector<double>{1.5});
+  EXPECT_EQ(ds.info().stats_from, plain_dir.string());
+  EXPECT_EQ(ds.stats().pose_mean, plain.stats().pose_mean);
+  EXPECT_EQ(ds.stats().control_std, plain.stats().control_std);
+  for (const char* split : {"train", "val"}) {
+    const auto& recs = ds.clips(split);
+    const auto& base = plain.clips(split);
+    ASSERT_EQ(recs.size(), 2 * base.size()) << split;
+    for (size_t f = 0; f < base.size() / 2; ++f) {  // per file: original, mirror, retimed original, retimed mirror
+      const ClipRecord& orig = recs[4 * f];
+      const ClipRecord& fast = recs[4 * f + 2];
+      EXPECT_FALSE(orig.augmented());
+      EXPECT_TRUE(fast.retimed && fast.augmented() && !fast.mirrored);
+      EXPECT_TRUE(recs[4 * f + 3].retimed && recs[4 * f + 3].mirrored);
+      EXPECT_EQ(orig.num_frames, 90);
+      EXPECT_EQ(fast.num_frames, 60);  // 0, 1.5, ..., 88.5
+      EXPECT_EQ(fast.content, orig.content);
+      // Root speed from the control: dx, dz per frame, summed over the clip.
+      auto distance = [](const ClipRecord& r, int frames) {
+        double d = 0;
+        for (int t = 1; t < frames; ++t) d += std::hypot(r.control[3 * t], r.control[3 * t + 1]);
+        return d;
+      };
+      EXPECT_NEAR(distance(fast, 59) / 58, 1.5 * distance(orig, 88) / 87, 0.05 * distance(orig, 88) / 87);
+    }
+  }
+  o.retime_factors = {1.0};
+  EXPECT_THROW(prepare_dataset(o), Error);
+  o.retime_factors = {-2};
+  EXPECT_THROW(prepare_dataset(o), Error);
+  o.retime_factors = {};
+  o.stats_from = out.string() + "/nowhere";
+  EXPECT_THROW(prepare_dataset(o), Error);
+  fs::remove_all(out);
+  fs::remove_all(plain_dir);
+}
+
 TEST(Prepare, PositionsFormFiltersJointsAndResample) {
   const fs::path out = temp_path("pos");
   fs::remove_all(out);

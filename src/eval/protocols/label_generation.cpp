@@ -70,7 +70,7 @@ void LabelGenerationProtocol::sample_every_combination(EvalContext& ctx, const n
 void LabelGenerationProtocol::real_clips(const EvalContext& ctx, const nn::LoadedRun& cls, ClassifierInputs* set) const {
   const data::DatasetInfo& info = ctx.info();
   for (const data::ClipRecord& rec : ctx.dataset().clips(ctx.options().split)) {
-    if ((rec.mirrored || rec.reversed) && !ctx.options().include_augmented) continue;
+    if (rec.augmented() && !ctx.options().include_augmented) continue;
     set->add_in_windows(rec.pose, rec.control, rec.source,
              nn::translate_label(rec.content, info.content_labels, cls.dataset.content_labels),
              nn::translate_label(rec.style, info.style_labels, cls.dataset.style_labels));
