@@ -565,7 +565,11 @@ std::string dataset_summary(const Dataset& dataset) {
       << (info.augment_reverse ? "yes" : "no");
   if (!info.augment_retime.empty()) {
     out << ", retimed x";
-    for (size_t i = 0; i < info.augment_retime.size(); ++i) out << (i ? ", x" : "") << info.augment_retime[i];
+    for (size_t i = 0; i < info.augment_retime.size(); ++i) {
+      char factor[32];
+      std::snprintf(factor, sizeof(factor), "%g", info.augment_retime[i]);
+      out << (i ? ", x" : "") << factor;
+    }
   }
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";
