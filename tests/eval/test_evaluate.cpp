@@ -356,6 +356,19 @@ TEST_F(EvaluateTest, PrefixGenerationRowsAndFig9Curves) {
     EXPECT_LE(r.row(key).model, 1.0);
   }
   EXPECT_GE(r.row("prefix_generation.contents_per_sample").model, 1.0);
+  // The same fraction per prefix content: the overall one is their sample-weighted mean, so it lies
+  // between the smallest and the largest.
+  double lowest = 2, highest = -1;
+  for (const auto& row : r.rows)
+    if (row.key.rfind("prefix_generation.root_speed_within_2x.", 0) == 0) {
+      EXPECT_THAT(row.label, HasSubstr("prefixes ("));
+      lowest = std::min(lowest, row.model);
+      highest = std::max(highest, row.model);
+    }
+  ASSERT_LE(highest, 1.0);
+  EXPECT_GE(lowest, 0.0);
+  EXPECT_LE(lowest, r.row("prefix_generation.root_speed_within_2x").model + 1e-12);
+  EXPECT_GE(highest, r.row("prefix_generation.root_speed_within_2x").model - 1e-12);
   // 20 + 120 frames in windows of 60: three windows, the training level as the real column.
   EXPECT_NO_THROW(r.row("prefix_generation.mean_pose_distance_m.w2"));
   EXPECT_THROW(r.row("prefix_generation.mean_pose_distance_m.w3"), Error);
