@@ -337,8 +337,14 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
     boundary_error = (r_first.recon * first_mask).sum() / first_mask.sum().clamp_min(1.0);
     total = total + options_.boundary_weight * boundary_error;
   }
-  auto velocity = hvrnn::velocity_error(pred, frames, mask);
-  if (options_.velocity_weight > 0) total = total + options_.velocity_weight * velocity;
+  torch::Tensor velocity;
+  if (options_.velocity_weight > 0) {
+    velocity = hvrnn::velocity_error(pred, frames, mask);
+    total = total + options_.velocity_weight * velocity;
+  } else {
+    torch::NoGradGuard reported_only;  // logged, so kept out of the graph when it is not trained
+    velocity = hvrnn::velocity_error(pred.detach(), frames, mask);
+  }
   torch::Tensor cl = torch::zeros({}, total.options());
   const double w_cl = is_training() ? current_classifier_weight() : options_.classifier_weight;
   if (!options_.classifier_run.empty() && w_cl > 0) {
