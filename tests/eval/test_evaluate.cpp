@@ -172,6 +172,13 @@ TEST_F(EvaluateTest, DrawnPathsAndFootLockedRows) {
   EXPECT_EQ(r.row("paths.foot_skating_ratio").real, plain.row("foot_skating_ratio").real);
   // (The model column may be n/a: a 6-step model need not make footsteps along a drawn path.)
   EXPECT_TRUE(std::isfinite(r.row("paths.footsteps.v_tol95_cmps").real));
+  for (const auto& path : eval::synthetic_paths()) {  // per path: the same real column, the path's own samples
+    const std::string key = "paths." + path.name + ".foot_skating_ratio";
+    EXPECT_EQ(r.row(key).real, plain.row("foot_skating_ratio").real) << key;
+    EXPECT_THAT(r.row(key).label, HasSubstr("(path " + path.name + ")"));
+    EXPECT_NO_THROW(r.row("paths." + path.name + ".footsteps.v_tol95_cmps"));
+  }
+  EXPECT_THROW(r.row("paths.curve.apd_m"), Error);  // only footsteps and skating per path
   EXPECT_TRUE(std::isfinite(r.row("foot_locked.foot_skating_ratio").model));
   EXPECT_THAT(r.row("foot_locked.foot_skating_ratio").label, HasSubstr("(foot-locked)"));
 }
