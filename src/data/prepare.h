@@ -48,7 +48,9 @@ struct PrepareOptions {
   bool reverse = false;                 // add time-reversed copies (and of mirrored ones)
   // Playback-speed factors of extra copies of every clip (and of its mirrored and reversed copies):
   // 1.2 adds the clip played 1.2 times as fast (data/augment.h retime). Widens the speeds a
-  // model sees, e.g. walks up to 1.8 m/s where the takes stop at 1.6. Each factor positive, not 1.
+  // model sees, e.g. walks up to 1.8 m/s where the takes stop at 1.6; but the cadence at a speed
+  // becomes ambiguous (on Bandai-Namco it cost the recurrent VAE its held-out footsteps,
+  // models/rvae-locomotion/README.md). Each factor positive, not 1.
   std::vector<double> retime_factors;
   // When set, a dataset or run directory whose stats.json standardises this dataset instead of its
   // own training statistics (same pose and control dims), so that a model warm-started from that

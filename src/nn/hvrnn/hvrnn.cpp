@@ -343,7 +343,7 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
     total = total + options_.velocity_weight * velocity;
   } else {
     torch::NoGradGuard reported_only;  // logged, so kept out of the graph when it is not trained
-    velocity = hvrnn::velocity_error(pred.detach(), frames, mask);
+    velocity = hvrnn::velocity_error(pred, frames, mask);
   }
   torch::Tensor cl = torch::zeros({}, total.options());
   const double w_cl = is_training() ? current_classifier_weight() : options_.classifier_weight;
