@@ -95,6 +95,10 @@ void add_data_commands(CLI::App& app, Action* action) {
                    "standardise with the stats.json of this dataset or run directory instead of this dataset's own "
                    "(same features), so a model warm-started from that run keeps its input units")
       ->check(CLI::ExistingDirectory);
+  prep->add_option("--split-from", o.split_from,
+                   "keep the file split of this dataset or run directory: its held-out files stay held out, its "
+                   "training files in training (new files are split by --val and --seed)")
+      ->check(CLI::ExistingDirectory);
   prep->add_option("--val", o.val_fraction, "fraction of files held out for validation")->capture_default_str();
   prep->add_option("--seed", o.seed, "seed of the train/validation split")->capture_default_str();
   prep->add_option("--contents", a->contents, "keep only these content labels, comma-separated (e.g. walk,run)");

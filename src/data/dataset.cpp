@@ -229,6 +229,7 @@ json info_to_json(const DatasetInfo& info) {
   j["augmentation"] = {{"mirror", info.augment_mirror}, {"reverse", info.augment_reverse}};
   if (!info.augment_retime.empty()) j["augmentation"]["retime"] = info.augment_retime;
   if (!info.stats_from.empty()) j["stats_from"] = info.stats_from;
+  if (!info.split_from.empty()) j["split_from"] = info.split_from;
   j["tpose"] = info.tpose;
   j["drop_joint_patterns"] = info.drop_joint_patterns;
   j["keep_joint_patterns"] = info.keep_joint_patterns;
@@ -284,6 +285,7 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
   }
   info.tpose = optional_key(j, "tpose", std::string("auto"), file);
   info.stats_from = optional_key(j, "stats_from", std::string(), file);
+  info.split_from = optional_key(j, "split_from", std::string(), file);
   info.drop_joint_patterns = optional_key(j, "drop_joint_patterns", std::vector<std::string>{}, file);
   info.keep_joint_patterns = optional_key(j, "keep_joint_patterns", std::vector<std::string>{}, file);
   info.max_train_seconds = optional_key(j, "max_train_seconds", 0.0, file);
@@ -573,6 +575,7 @@ std::string dataset_summary(const Dataset& dataset) {
   }
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";
+  if (!info.split_from.empty()) out << "split:       kept from " << info.split_from << "\n";
   for (const char* split : {"train", "val"}) {
     const std::vector<ClipRecord>& clips = dataset.clips(split);
     long long frames = 0;

@@ -98,6 +98,9 @@ struct DatasetInfo {
   // Where stats.json came from when not computed on this dataset's training split
   // (PrepareOptions::stats_from); empty otherwise.
   std::string stats_from;
+  // The dataset or run directory whose file split this one kept (PrepareOptions::split_from);
+  // empty otherwise.
+  std::string split_from;
   std::string tpose = "auto";             // T-pose removal mode used (data/augment.h)
   std::vector<std::string> drop_joint_patterns, keep_joint_patterns;
   std::vector<std::string> source_joint_names;  // joints of the BVH files before any reduction

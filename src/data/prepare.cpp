@@ -130,6 +130,9 @@ void check_options(const PrepareOptions& o) {
   if (o.threads < 1) throw Error("prepare: threads must be at least 1");
   if (!(o.meters_per_unit >= 0) || !std::isfinite(o.meters_per_unit))
     throw Error("prepare: meters_per_unit must be 0 (guess) or positive");
+  if (!o.split_from.empty() && !fs::exists(fs::path(o.split_from) / "dataset.json") &&
+      !fs::exists(fs::path(o.split_from) / "config.json"))
+    throw Error(o.split_from + ": no dataset.json or config.json (split_from takes a dataset or run directory)");
   if (!o.stats_from.empty() && !fs::exists(fs::path(o.stats_from) / "stats.json"))
     throw Error(o.stats_from + ": no stats.json (stats_from takes a dataset or run directory)");
   for (double f : o.retime_factors)
@@ -308,6 +311,34 @@ std::vector<bool> validation_files(int n, double val_fraction, uint64_t seed) {
   return is_val;
 }
 
+// The split of dir's dataset (PrepareOptions::split_from) applied to items: its val_files held out,
+// its train_files kept for training, the files it does not list split by fresh_split.
+std::vector<bool> borrowed_split(const std::string& dir, const std::vector<Item>& items,
+                                 const std::vector<bool>& fresh_split) {
+  const fs::path dataset_json = fs::path(dir) / "dataset.json";
+  const std::string path = fs::exists(dataset_json) ? dataset_json.string() : (fs::path(dir) / "config.json").string();
+  const nlohmann::json j = io::read_json(path);
+  const nlohmann::json& info = j.contains("dataset") ? j.at("dataset") : j;
+  std::set<std::string> val, train;
+  try {
+    for (const auto& f : info.at("val_files")) val.insert(f.get<std::string>());
+    for (const auto& f : info.at("train_files")) train.insert(f.get<std::string>());
+  } catch (const std::exception& e) {
+    throw Error(path + ": no file split to keep (train_files and val_files lists of names expected: " + e.what() + ")");
+  }
+  std::vector<bool> is_val = fresh_split;
+  bool any_known = false;
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (val.count(items[i].source)) is_val[i] = true;
+    else if (train.count(items[i].source)) is_val[i] = false;
+    else continue;
+    any_known = true;
+  }
+  if (!any_known)
+    throw Error(path + ": none of its files is among the inputs (file names are recorded relative to the input folder)");
+  return is_val;
+}
+
 // Which augmented copies of each clip a dataset holds (PrepareOptions::mirror, ::reverse,
 // ::retime_factors).
 struct Augmentation {
@@ -414,7 +445,8 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
   info = describe_dataset(o, std::move(info), skeleton, clips[0].motion.fps, raw_joint_names);
 
   // 4. Split by file, then the training budget.
-  const std::vector<bool> is_val = validation_files(n, o.val_fraction, o.seed);
+  std::vector<bool> is_val = validation_files(n, o.val_fraction, o.seed);
+  if (!o.split_from.empty()) is_val = borrowed_split(o.split_from, items, is_val);
   const std::vector<int> keep_frames = training_budget(clips, is_val, o.max_train_seconds);
   for (int i = 0; i < n; ++i)
     if (keep_frames[i] > 0) (is_val[i] ? info.val_files : info.train_files).push_back(items[i].source);
@@ -440,6 +472,7 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
                                  ? compute_stats(train, info.layout.pose_dim, info.layout.control_dim)
                                  : borrowed_stats(o.stats_from, info.layout);
   info.stats_from = o.stats_from;
+  info.split_from = o.split_from;
   write_dataset(o.output_dir, info, stats, train, val, o.overwrite);
   if (progress) {
     PrepareProgress p;

@@ -56,6 +56,11 @@ struct PrepareOptions {
   // own training statistics (same pose and control dims), so that a model warm-started from that
   // run (`train --init-from`) reads the new data in the units its weights were trained on.
   std::string stats_from;
+  // When set, a dataset directory (dataset.json) or run directory (config.json "dataset") whose
+  // file split this dataset keeps: its held-out files stay held out and its training files stay in
+  // training, so a model grown from that run is never validated on what it trained on; files it
+  // does not list are split by val_fraction and seed as usual.
+  std::string split_from;
   double val_fraction = 0.1;            // fraction of files held out, in [0, 1)
   std::uint64_t seed = 0;               // split seed
   std::vector<std::string> contents;    // keep only these content labels (empty: all)

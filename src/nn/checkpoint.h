@@ -50,12 +50,29 @@ struct InitReport {
                                       // with no effect)
   std::vector<std::string> missing;   // tensors not in the checkpoint or of another shape: left
                                       // as initialised
+  std::vector<std::string> relabelled;  // label inputs whose columns were matched by label name
+};
+
+// The content and style vocabularies of a run (its dataset's labels, in one-hot order).
+struct LabelVocabularies {
+  std::vector<std::string> content, style;
+  bool operator==(const LabelVocabularies& o) const { return content == o.content && style == o.style; }
+};
+
+// The vocabularies of the checkpoint being read and of the model being initialised. When they
+// differ, each TrainableModel::label_inputs() parameter takes the stored columns of every label
+// both know, by name; labels new to the model start at zero (as "no label"), labels it dropped are
+// left out, and the columns before and after the label block are copied as they are.
+struct InitLabels {
+  LabelVocabularies stored, model;
 };
 
 // Warm start (mosyn train --init-from): copies a checkpoint's model tensors into a freshly built
 // model of the same family, tolerating architecture changes as InitReport describes. Optimiser
 // state and step are not taken. Throws mosyn::Error naming path when the file is missing,
 // corrupt or of another family.
-InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device);
+// labels (optional): see InitLabels.
+InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device,
+                                const InitLabels* labels = nullptr);
 
 }  // namespace mosyn::nn

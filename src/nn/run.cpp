@@ -2,7 +2,9 @@
 
 #include <torch/serialize.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include "core/error.h"
 #include "io/atomic_file.h"
@@ -71,14 +73,62 @@ Fit copy_what_fits(torch::Tensor& target, const torch::Tensor& stored, const std
   return Fit::kGrown;
 }
 
+// Label columns moved by name (InitLabels). Returns false when the shapes do not fit the two
+// vocabularies, leaving target alone.
+bool copy_relabelled(torch::Tensor& target, const torch::Tensor& stored, const LabelInput& in, const InitLabels& labels) {
+  const auto& from = labels.stored;
+  const auto& to = labels.model;
+  const int64_t from_width = static_cast<int64_t>(from.content.size() + from.style.size());
+  const int64_t to_width = static_cast<int64_t>(to.content.size() + to.style.size());
+  const int64_t axis = in.axis, off = in.offset;
+  if (stored.dim() != target.dim() || axis < 0 || axis >= stored.dim()) return false;
+  for (int64_t k = 0; k < stored.dim(); ++k)
+    if (k != axis && stored.size(k) != target.size(k)) return false;
+  const int64_t tail = stored.size(axis) - off - from_width;
+  if (off < 0 || tail < 0 || target.size(axis) != off + to_width + tail) return false;
+  target.zero_();
+  target.narrow(axis, 0, off).copy_(stored.narrow(axis, 0, off));
+  target.narrow(axis, off + to_width, tail).copy_(stored.narrow(axis, off + from_width, tail));
+  auto move_block = [&](const std::vector<std::string>& names_from, const std::vector<std::string>& names_to,
+                        int64_t base_from, int64_t base_to) {
+    for (size_t j = 0; j < names_to.size(); ++j) {
+      const auto it = std::find(names_from.begin(), names_from.end(), names_to[j]);
+      if (it == names_from.end()) continue;  // new label: zero, i.e. "none"
+      target.narrow(axis, base_to + static_cast<int64_t>(j), 1)
+          .copy_(stored.narrow(axis, base_from + (it - names_from.begin()), 1));
+    }
+  };
+  move_block(from.content, to.content, off, off);
+  move_block(from.style, to.style, off + static_cast<int64_t>(from.content.size()),
+             off + static_cast<int64_t>(to.content.size()));
+  return true;
+}
+
+struct InitContext {
+  InitReport* report;
+  const InitLabels* labels;  // null or equal vocabularies: no relabelling
+  std::map<std::string, LabelInput> label_inputs;
+};
+
 void init_module(torch::nn::Module& module, torch::serialize::InputArchive& archive, const std::string& prefix,
-                 InitReport* report) {
+                 InitContext& ctx) {
+  InitReport* report = ctx.report;
   torch::NoGradGuard no_grad;
   auto take = [&](torch::Tensor& target, const std::string& key, bool is_buffer) {
     torch::Tensor stored;
     const std::string name = prefix + key;
     if (!archive.try_read(key, stored, is_buffer)) {
       report->missing.push_back(name);
+      return;
+    }
+    if (const auto it = ctx.label_inputs.find(name); it != ctx.label_inputs.end() && ctx.labels) {
+      const torch::Tensor converted = stored.to(target.dtype());
+      check_finite(converted, name);
+      if (copy_relabelled(target, converted, it->second, *ctx.labels)) {
+        report->relabelled.push_back(name);
+      } else {
+        report->missing.push_back(name);
+      }
       return;
     }
     switch (copy_what_fits(target, stored.to(target.dtype()), name)) {
@@ -95,7 +145,7 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
       report->missing.push_back(prefix + child.key() + ".*");
       continue;
     }
-    init_module(*child.value(), child_archive, prefix + child.key() + ".", report);
+    init_module(*child.value(), child_archive, prefix + child.key() + ".", ctx);
   }
 }
 
@@ -121,7 +171,8 @@ std::string first_line(const std::exception& e) {
 
 }  // namespace
 
-InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device) {
+InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, const torch::Device& device,
+                                const InitLabels* labels) {
   const std::string bytes = io::read_file(path);
   InitReport report;
   try {
@@ -132,7 +183,10 @@ InitReport init_from_checkpoint(const std::string& path, TrainableModel& model, 
     report.step = static_cast<int>(v.toInt());
     torch::serialize::InputArchive model_archive;
     archive.read("model", model_archive);
-    init_module(model, model_archive, "", &report);
+    InitContext ctx{&report, labels && !(labels->stored == labels->model) ? labels : nullptr, {}};
+    if (ctx.labels)
+      for (const LabelInput& in : model.label_inputs()) ctx.label_inputs[in.parameter] = in;
+    init_module(model, model_archive, "", ctx);
   } catch (const Error& e) {
     throw Error(path + ": cannot initialise from this checkpoint: " + e.what());
   } catch (const std::exception& e) {

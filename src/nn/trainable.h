@@ -35,6 +35,16 @@ struct LossTerms {
   const torch::Tensor& loss() const { return terms.at("loss"); }
 };
 
+// Where a model's label features (nn/label_features.h: one-hot content, then one-hot style) enter
+// a parameter: along `axis` of the parameter named `parameter` (as in named_parameters()), from
+// column `offset`. A warm start from a run with other vocabularies moves these columns by label
+// name (init_from_checkpoint).
+struct LabelInput {
+  std::string parameter;  // e.g. "control_encoder.convs.0.weight"
+  int64_t axis = 1;       // the input axis (1 for Linear [out, in], Conv1d [out, in, k], LSTM weight_ih)
+  int64_t offset = 0;     // first label column along axis
+};
+
 // A torch::nn::Module whose parameters and buffers are everything a checkpoint must hold besides
 // config().
 class TrainableModel : public torch::nn::Module {
@@ -72,6 +82,10 @@ class TrainableModel : public torch::nn::Module {
   // clip of at least n frames as one window padded to the window's length, with Batch::frames
   // telling the valid part, for families whose loss masks padding.
   virtual int short_window_min_frames() const { return 0; }
+
+  // The parameters that take the label features, for warm starts across vocabularies. Default:
+  // none (a family without label inputs, or one whose label columns are not to be remapped).
+  virtual std::vector<LabelInput> label_inputs() const { return {}; }
 
   // Training objective on a batch. Uses training-only regularisers (e.g. data dropout) only when
   // is_training(). Random choices draw from the default CPU generator (torch::manual_seed).

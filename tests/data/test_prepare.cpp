@@ -242,6 +242,39 @@ TEST(Prepare, RetimedCopiesAndBorrowedStats) {
   fs::remove_all(plain_dir);
 }
 
+// split_from keeps another dataset's split when contents are added: its held-out files stay held
+// out and its training files in training, whatever the new seed; the added files are split too.
+TEST(Prepare, SplitFromKeepsHeldOutFilesHeldOut) {
+  const fs::path small = temp_path("split_small"), grown = temp_path("split_grown");
+  fs::remove_all(small);
+  fs::remove_all(grown);
+  PrepareOptions o = basic_options(small.string());
+  o.contents = {"walk", "run"};
+  o.val_fraction = 0.5;
+  prepare_dataset(o);
+  const DatasetInfo before = Dataset::open(small.string()).info();
+  ASSERT_EQ(before.val_files.size(), 4u);  // half of 2 contents x 2 styles x 2 takes
+  o.output_dir = grown.string();
+  o.contents = {};
+  o.val_fraction = 0.25;
+  o.seed = 99;
+  o.split_from = small.string();
+  prepare_dataset(o);
+  const DatasetInfo after = Dataset::open(grown.string()).info();
+  EXPECT_EQ(after.split_from, small.string());
+  auto has = [](const std::vector<std::string>& files, const std::string& f) {
+    return std::find(files.begin(), files.end(), f) != files.end();
+  };
+  for (const std::string& f : before.val_files) EXPECT_TRUE(has(after.val_files, f)) << f;
+  for (const std::string& f : before.train_files) EXPECT_TRUE(has(after.train_files, f)) << f;
+  EXPECT_EQ(after.val_files.size() + after.train_files.size(), 16u);
+  EXPECT_GT(after.val_files.size(), before.val_files.size());  // some added files held out as well
+  o.split_from = temp_path("split_nowhere").string();
+  EXPECT_THROW(prepare_dataset(o), Error);
+  fs::remove_all(small);
+  fs::remove_all(grown);
+}
+
 TEST(Prepare, PositionsFormFiltersJointsAndResample) {
   const fs::path out = temp_path("pos");
   fs::remove_all(out);

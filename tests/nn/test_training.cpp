@@ -6,6 +6,7 @@
 #include <torch/optim/adam.h>
 #include <torch/utils.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -407,6 +408,67 @@ TEST(Training, InitFromGrowsNewConditionsAndLabelsCondition) {
   EXPECT_THROW(train(ob, ds), mosyn::Error);  // resume and init_from exclude each other
   fs::remove_all(dir_a);
   fs::remove_all(dir_b);
+}
+
+// --init-from across vocabularies: label columns move by name. A model warm-started with labels
+// reordered, one added and one dropped computes, for every label both runs know, exactly what the
+// old model did; a label new to it acts as "no label".
+TEST(Training, InitFromMatchesLabelColumnsByName) {
+  const std::vector<std::pair<std::string, nlohmann::json>> families = {
+      {"moglow", {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"labels", true}}},
+      {"rvae",
+       {{"encoder_channels", {8, 12}}, {"control_channels", {6, 10}}, {"decoder_channels", {8}}, {"latent", 5},
+        {"kernel", 5}, {"input_dropout", 0.0}, {"labels", true}, {"label_dropout", 0.0}}}};
+  for (const auto& [family, cfg] : families) {
+    SCOPED_TRACE(family);
+    const auto dir = temp_dir("relabel_" + family);
+    fs::create_directories(dir);
+    InitLabels labels;
+    labels.stored = {{"walk", "run", "crawl"}, {"normal", "tired"}};
+    labels.model = {{"run", "jump", "walk"}, {"tired", "normal", "proud"}};
+    ModelContext old_ctx = mosyn::nn::testing::small_context(kDim);
+    old_ctx.num_content = 3;
+    old_ctx.num_style = 2;
+    torch::manual_seed(5);
+    auto old_model = create_model(family, cfg, old_ctx);
+    // Non-zero label weights, so that a misplaced column shows.
+    {
+      torch::NoGradGuard no_grad;
+      for (auto& p : old_model->parameters()) p.add_(0.1 * torch::randn(p.sizes()));
+    }
+    const std::string path = (dir / "checkpoint.pt").string();
+    save_checkpoint(path, *old_model, nullptr, CheckpointState{});
+    ModelContext new_ctx = old_ctx;
+    new_ctx.num_content = 3;
+    new_ctx.num_style = 3;
+    auto new_model = create_model(family, cfg, new_ctx);
+    const InitReport report = init_from_checkpoint(path, *new_model, torch::kCPU, &labels);
+    EXPECT_FALSE(report.relabelled.empty());
+    EXPECT_TRUE(report.missing.empty()) << report.missing.front();
+    EXPECT_TRUE(report.grown.empty());
+    old_model->eval();
+    new_model->eval();
+    auto batch = mosyn::nn::testing::noisy_sinusoid_batch(1, 12, kDim);
+    auto loss_of = [&](MotionModel& m, int content, int style) {
+      Batch b = batch;
+      b.content = torch::tensor({content}, torch::kInt64);
+      b.style = torch::tensor({style}, torch::kInt64);
+      torch::manual_seed(9);  // the same latent draws for both models
+      return m.loss(b).loss().item<double>();
+    };
+    // (old content, old style) -> (new content, new style), by name; -1 = none.
+    const std::vector<std::array<int, 4>> same = {{0, 0, 2, 1}, {1, 1, 0, 0}, {0, 1, 2, 0}, {-1, -1, 1, 2}, {-1, 0, 1, 1}};
+    for (const auto& c : same)
+      EXPECT_NEAR(loss_of(*new_model, c[2], c[3]), loss_of(*old_model, c[0], c[1]), 1e-5)
+          << c[0] << "," << c[1] << " -> " << c[2] << "," << c[3];
+    // Without the vocabularies the same checkpoint cannot be placed column by column.
+    auto unmapped = create_model(family, cfg, new_ctx);
+    const InitReport plain = init_from_checkpoint(path, *unmapped, torch::kCPU);
+    EXPECT_TRUE(plain.relabelled.empty());
+    unmapped->eval();
+    EXPECT_GT(std::abs(loss_of(*unmapped, 2, 1) - loss_of(*old_model, 0, 0)), 1e-4);  // the test can tell
+    fs::remove_all(dir);
+  }
 }
 
 namespace {

@@ -253,6 +253,17 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
 }
 
+std::vector<LabelInput> MoGlowImpl::label_inputs() const {
+  if (label_dim_ == 0) return {};
+  const int64_t d = context_.pose_dim, c = context_.control_dim, tau = options_.tau;
+  std::vector<LabelInput> out;
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const int64_t d_lo = steps[k]->coupling->dim_lo();
+    out.push_back({"step" + std::to_string(k) + ".coupling.lstm.weight_ih_l0", 1, d_lo + tau * d + (tau + 1) * c});
+  }
+  return out;
+}
+
 torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control,
                                        const torch::Tensor& labels) const {
   const int64_t tau = options_.tau, b = pose.size(0), t = pose.size(1);

@@ -168,6 +168,8 @@ class MoGlowImpl : public MotionModel {
   // The first call in training mode initialises every ActNorm from this batch. Frames past a
   // window's Batch::frames (a short clip's padding) are left out of every term.
   LossTerms loss(const Batch& batch) override;
+  // Every coupling LSTM's first layer takes [x_lo, history, control, labels, look-ahead].
+  std::vector<LabelInput> label_inputs() const override;
   // With short_clips: clips of more than tau frames (at least one predicted frame).
   int short_window_min_frames() const override { return options_.short_clips ? options_.tau + 1 : 0; }
 

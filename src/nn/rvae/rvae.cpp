@@ -223,6 +223,11 @@ RvaeImpl::Posterior RvaeImpl::encode(const torch::Tensor& pose) {
   return {parts[0], parts[1]};
 }
 
+std::vector<LabelInput> RvaeImpl::label_inputs() const {
+  if (label_dim_ == 0) return {};
+  return {{"control_encoder.convs.0.weight", 1, context_.control_dim}};
+}
+
 torch::Tensor RvaeImpl::encode_control(const torch::Tensor& control, const torch::Tensor& labels) {
   if (control.dim() != 3 || control.size(2) != context_.control_dim || control.size(1) < 1)
     throw Error("rvae: control must be [B, T >= 1, " + std::to_string(context_.control_dim) + "]");

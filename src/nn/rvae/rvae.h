@@ -125,6 +125,8 @@ class RvaeImpl : public MotionModel {
   // "nll_dim" = nll_frame / D; "kl_weight"; "loss" = (recon + w kl) / D (+ l1 penalty) with
   // w the annealed weight in training and kl_weight in eval (so validation is comparable).
   LossTerms loss(const Batch& batch) override;
+  // The control encoder's first convolution takes [control, labels] per frame.
+  std::vector<LabelInput> label_inputs() const override;
 
   // control [B, T, C], any T >= 1. Without prefix_pose: z_1 ~ N(0, temperature^2 I) (prior,
   // the paper's Algorithm 1). With prefix_pose [B, P, D] (and prefix_control [B, P, C], zeros =

@@ -110,4 +110,19 @@ nlohmann::json init_model_config(const std::string& init_dir, const std::string&
   return config;
 }
 
+LabelVocabularies init_label_vocabularies(const std::string& init_dir) {
+  const std::string path = (fs::path(init_dir) / "config.json").string();
+  const nlohmann::json saved = io::read_json(path);
+  LabelVocabularies v;
+  try {
+    if (const auto d = saved.find("dataset"); d != saved.end() && d->is_object()) {
+      if (d->contains("content_labels")) v.content = d->at("content_labels").get<std::vector<std::string>>();
+      if (d->contains("style_labels")) v.style = d->at("style_labels").get<std::vector<std::string>>();
+    }
+  } catch (const std::exception& e) {
+    throw Error(path + ": dataset content_labels/style_labels must be lists of strings (" + e.what() + ")");
+  }
+  return v;
+}
+
 }  // namespace mosyn::nn::training

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "nn/checkpoint.h"
+
 namespace mosyn::nn::training {
 
 // The files of a run directory (see nn/training/train.h).
@@ -56,6 +58,10 @@ bool check_run_directory(const RunPaths& paths, bool resume, bool overwrite);
 // Before a resume: throws when there is no checkpoint. Before a fresh run in a directory that held
 // one (existed): removes the earlier run's files.
 void clear_run(const RunPaths& paths, bool resume, bool existed);
+
+// The label vocabularies an init run was trained with (its config.json "dataset" content_labels
+// and style_labels; empty when it has none). Throws mosyn::Error for an unreadable config.
+LabelVocabularies init_label_vocabularies(const std::string& init_dir);
 
 // The model config of a warm start: the init run's resolved config (its config.json "model"), then
 // the caller's keys. Throws mosyn::Error when it is not a run of `family`.

@@ -232,10 +232,14 @@ void Trainer::build_model(const nlohmann::json& model_config) {
   // A warm start is read by rank 0 and reaches the others with its weights (start_or_resume).
   if (leader() && !opts_.resume && !opts_.init_from.empty()) {
     const std::string from = (fs::path(opts_.init_from) / "checkpoint.pt").string();
-    const InitReport r = init_from_checkpoint(from, *model_, device_);
+    const InitLabels labels{training::init_label_vocabularies(opts_.init_from),
+                            {dataset_.info().content_labels, dataset_.info().style_labels}};
+    const InitReport r = init_from_checkpoint(from, *model_, device_, &labels);
     std::string text = "initialised from " + from + " (step " + std::to_string(r.step) + "): " +
                        std::to_string(r.copied) + " tensors copied";
     if (!r.grown.empty()) text += ", " + std::to_string(r.grown.size()) + " grown (new inputs start at zero)";
+    if (!r.relabelled.empty())
+      text += ", " + std::to_string(r.relabelled.size()) + " label inputs matched by label name (new labels start at zero)";
     if (!r.missing.empty()) text += ", " + std::to_string(r.missing.size()) + " left as initialised";
     message(text);
   }
