@@ -1,5 +1,7 @@
 #include "eval/path_protocol.h"
 
+#include <cmath>
+
 #include "data/control.h"
 #include "eval/protocols/protocols.h"
 #include "nn/sampling.h"
@@ -15,8 +17,18 @@ const std::vector<SyntheticPath>& synthetic_paths() {
   return kPaths;
 }
 
+std::vector<PathPhase> path_phases(const std::vector<float>& control, double fps, double speed_mps) {
+  std::vector<PathPhase> out;
+  for (size_t t = 0; 3 * t + 2 < control.size(); ++t) {
+    const double v = std::hypot(control[3 * t], control[3 * t + 1]) * fps;
+    out.push_back(v >= 0.9 * speed_mps ? PathPhase::kSteady : v < 0.05 ? PathPhase::kStanding : PathPhase::kChanging);
+  }
+  return out;
+}
+
 std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, int n, std::uint64_t seed,
-                                                    double temperature, int warmup_frames) {
+                                                    double temperature, int warmup_frames,
+                                                    std::vector<std::vector<PathPhase>>* phases) {
   std::vector<MotionPositions> out;
   const nn::SampleExtras extras = detail::walk_extras(run, warmup_frames);
   const auto& paths = synthetic_paths();
@@ -24,10 +36,17 @@ std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, in
     data::PathOptions po;
     po.speed_mps = paths[i].speed_mps;
     po.fps = run.dataset.fps;
-    const std::vector<float> control = data::smooth_control(
-        data::control_from_path(data::parse_path(paths[i].path), po), po.fps, run.dataset.layout.root_smoothing_s);
-    for (const auto& motion : nn::sample_motions(run, control, n, seed + i, temperature, extras))
+    const std::vector<float> drawn = data::control_from_path(data::parse_path(paths[i].path), po);
+    const std::vector<float> control = data::smooth_control(drawn, po.fps, run.dataset.layout.root_smoothing_s);
+    const std::vector<PathPhase> phase = path_phases(drawn, po.fps, po.speed_mps);  // as drawn, not smoothed
+    for (const auto& motion : nn::sample_motions(run, control, n, seed + i, temperature, extras)) {
       out.push_back(motion_positions(nn::decode_motion(run, motion), 0.0, paths[i].name));
+      if (phases) {
+        std::vector<PathPhase> p = phase;
+        p.resize(static_cast<size_t>(out.back().num_frames), p.empty() ? PathPhase::kStanding : p.back());
+        phases->push_back(std::move(p));
+      }
+    }
   }
   return out;
 }

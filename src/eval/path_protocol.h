@@ -22,10 +22,27 @@ struct SyntheticPath {
 // The protocol's paths (the same as scripts/natural_eval.py).
 const std::vector<SyntheticPath>& synthetic_paths();
 
+// What a drawn path asks of the walker at a frame, from the speed of its (smoothed) control.
+enum class PathPhase {
+  kSteady,    // at >= 90% of the path's speed
+  kChanging,  // between: starting, stopping, slowing into a sharp corner
+  kStanding,  // under 5 cm/s
+};
+
+// The phase of every frame of a control [T, 3] row-major (dx, dz in metres per frame, dtheta) at
+// fps, for a path walked at speed_mps: of the path as drawn (data::control_from_path, before the
+// dataset's smoothing), i.e. what the user asked for at that instant. The Bandai-Namco takes hold no start or stop at all (every
+// locomotion take begins and ends in stride), so kChanging and kStanding frames ask a model for
+// motion it has not seen.
+std::vector<PathPhase> path_phases(const std::vector<float>& control, double fps, double speed_mps);
+
 // N samples along every synthetic path (seed + path index), the "walk" content label when the
 // model takes labels and knows it, warm-up as warmup_frames (nn::SampleExtras). Returns the
 // decoded world positions [paths * N].
+// phases (optional): per returned motion, path_phases of its path as drawn (as many frames as
+// the motion).
 std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, int n, std::uint64_t seed,
-                                                    double temperature, int warmup_frames);
+                                                    double temperature, int warmup_frames,
+                                                    std::vector<std::vector<PathPhase>>* phases = nullptr);
 
 }  // namespace mosyn::eval

@@ -228,6 +228,18 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
   return static_cast<double>(skating) / (motion.num_frames - 1);
 }
 
+std::vector<double> slower_foot_speed_mps(const MotionPositions& motion, const FootJoints& feet) {
+  if (feet.left_heel < 0 || feet.right_heel < 0) throw Error("slower_foot_speed_mps: needs both heel joints");
+  std::vector<double> out;
+  for (int t = 1; t < motion.num_frames; ++t) {
+    double slower = std::numeric_limits<double>::infinity();
+    for (int j : {feet.left_heel, feet.right_heel})
+      slower = std::min(slower, horizontal(motion.position(t, j) - motion.position(t - 1, j), motion.up_axis).norm());
+    out.push_back(slower * motion.fps);
+  }
+  return out;
+}
+
 MotionPositions feature_points_world(const std::vector<float>& pose, const std::vector<float>& control, int dim,
                                      int from, int to, const std::vector<std::string>& names, double fps) {
   const int points = dim / 3;

@@ -125,6 +125,12 @@ struct FootSkatingOptions {
 // fewer than 2 frames.
 double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet, const FootSkatingOptions& options = {});
 
+// Horizontal speed (m/s) of the slower heel at every frame transition t-1 -> t (t = 1..T-1): near
+// zero while a foot is planted, so its median tells a walk (a foot down at almost every instant:
+// a few cm/s on Bandai-Namco walks) from a glide (both feet moving) and shows whether a body that
+// stands has its feet still. Empty for fewer than 2 frames; throws mosyn::Error without heels.
+std::vector<double> slower_foot_speed_mps(const MotionPositions& motion, const FootJoints& feet);
+
 // ---------------------------------------------------------------------------------------------
 // Body validity.
 

@@ -13,6 +13,7 @@
 #include "data/prepare.h"
 #include "eval/compare.h"
 #include "eval/evaluate.h"
+#include "data/control.h"
 #include "eval/path_protocol.h"
 #include "eval/protocols/protocols.h"
 #include "eval/report.h"
@@ -179,8 +180,41 @@ TEST_F(EvaluateTest, DrawnPathsAndFootLockedRows) {
     EXPECT_NO_THROW(r.row("paths." + path.name + ".footsteps.v_tol95_cmps"));
   }
   EXPECT_THROW(r.row("paths.curve.apd_m"), Error);  // only footsteps and skating per path
+  // Every drawn frame falls in one phase; the paths stand at the end, so some frames stand.
+  double phase_frames = 0;
+  for (const char* phase : {"steady", "changing", "standing"})
+    phase_frames += r.row(std::string("paths.phases.") + phase + ".frames").model;
+  EXPECT_GT(r.row("paths.phases.standing.frames").model, 0);
+  EXPECT_GT(r.row("paths.phases.steady.frames").model, 0);
+  EXPECT_EQ(phase_frames + static_cast<double>(eval::synthetic_paths().size()), r.row("paths.frames").model);
+  EXPECT_TRUE(std::isnan(r.row("paths.phases.standing.slower_foot_speed_mps").real));  // no real standing
+  EXPECT_TRUE(std::isfinite(r.row("paths.phases.steady.slower_foot_speed_mps").real));
   EXPECT_TRUE(std::isfinite(r.row("foot_locked.foot_skating_ratio").model));
   EXPECT_THAT(r.row("foot_locked.foot_skating_ratio").label, HasSubstr("(foot-locked)"));
+}
+
+// A drawn path's phases: standing at the pause and at the end, starting and stopping around them,
+// steady in between; exactly as the speed of the path as drawn says.
+TEST(PathPhases, StartsStopsAndStandingOfADrawnPath) {
+  data::PathOptions po;
+  po.speed_mps = 1.0;
+  po.fps = 10;
+  po.accel_s = 0.5;
+  const std::vector<float> control = data::control_from_path(data::parse_path("0,0 0,3,2 0,6"), po);
+  const auto phases = eval::path_phases(control, po.fps, po.speed_mps);
+  ASSERT_EQ(phases.size(), control.size() / 3);
+  int counts[3] = {0, 0, 0};
+  for (size_t t = 0; t < phases.size(); ++t) {
+    const double v = std::hypot(control[3 * t], control[3 * t + 1]) * po.fps;
+    const auto expected = v >= 0.9 ? eval::PathPhase::kSteady : v < 0.05 ? eval::PathPhase::kStanding : eval::PathPhase::kChanging;
+    EXPECT_EQ(phases[t], expected) << t;
+    ++counts[static_cast<int>(phases[t])];
+  }
+  EXPECT_GT(counts[0], 30);  // most of 6 m at 1 m/s
+  EXPECT_GE(counts[2], 20);  // the 2-s pause
+  EXPECT_GE(counts[1], 8);   // two starts and two stops of 0.5 s
+  EXPECT_EQ(phases.front(), eval::PathPhase::kStanding);  // frame 0 carries no motion
+  EXPECT_EQ(phases.back(), eval::PathPhase::kStanding);
 }
 
 TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {

@@ -130,6 +130,25 @@ TEST(FootSkatingTest, SlidingFootAtKnownSpeed) {
   EXPECT_DOUBLE_EQ(foot_skating_ratio(two_feet(both, both, fps), f), 1.0);
 }
 
+// The slower heel's speed: a walk alternates the planted foot, so it stays at zero; a glide moves
+// both, so it is the slower one's speed.
+TEST(FootSkatingTest, SlowerFootSpeedByHand) {
+  const double fps = 10;
+  // Left swings at 1 m/s for 5 transitions, then right swings, the other planted: a walk.
+  std::vector<double> left(10, 0.0), right(10, 0.0);
+  for (int t = 0; t < 5; ++t) left[t] = 1.0;
+  for (int t = 5; t < 10; ++t) right[t] = 1.0;
+  const MotionPositions walk = two_feet(integrate(left, fps), integrate(right, fps), fps);
+  const std::vector<double> v = slower_foot_speed_mps(walk, find_foot_joints(walk));
+  ASSERT_EQ(v.size(), 10u);
+  for (double x : v) EXPECT_NEAR(x, 0.0, 1e-12);
+  // Both feet gliding, at 0.3 and 0.5 m/s: the slower one's 0.3 at every transition.
+  const MotionPositions glide =
+      two_feet(integrate(std::vector<double>(10, 0.5), fps), integrate(std::vector<double>(10, 0.3), fps), fps);
+  for (double x : slower_foot_speed_mps(glide, find_foot_joints(glide))) EXPECT_NEAR(x, 0.3, 1e-12);
+  EXPECT_TRUE(slower_foot_speed_mps(two_feet({0.0}, {0.0}, fps), find_foot_joints(walk)).empty());
+}
+
 TEST(BodyValidityTest, BoneLengthAndDeformation) {
   MotionPositions m;
   m.fps = 10;

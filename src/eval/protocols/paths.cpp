@@ -1,4 +1,6 @@
 // Drawn paths (eval/path_protocol.h) scored with the set metrics against the real clips.
+#include <algorithm>
+
 #include "eval/path_protocol.h"
 #include "eval/protocols/protocols.h"
 
@@ -21,6 +23,55 @@ void per_path_rows(const std::string& name, const std::vector<MotionPositions>& 
                              real_rows[r].value});
 }
 
+double median_of(std::vector<double> v) {
+  if (v.empty()) return detail::kNaN;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  return v[mid];
+}
+
+// The slower foot's median speed in each phase of the paths (PathPhase), beside the real walks'
+// (all in stride: there is no real standing to compare with). Shows where along a path feet
+// glide: on Bandai-Namco the models walk the steady parts and slide through starts and stops.
+void phase_rows(const std::vector<MotionPositions>& along_paths, const std::vector<std::vector<PathPhase>>& phases,
+                const EvalContext& ctx, EvalResult& result) {
+  std::vector<double> by_phase[3], real_speeds;
+  for (size_t m = 0; m < along_paths.size() && m < phases.size(); ++m) {
+    const std::vector<double> v = slower_foot_speed_mps(along_paths[m], find_foot_joints(along_paths[m]));
+    // Transition t-1 -> t belongs to frame t's phase.
+    for (size_t t = 0; t < v.size() && t + 1 < phases[m].size(); ++t)
+      by_phase[static_cast<int>(phases[m][t + 1])].push_back(v[t]);
+  }
+  // The reference: the held-out "walk" clips when the dataset has that content (the paths ask for
+  // walking; a run's flight phase lifts both feet), else every held-out clip.
+  const auto& labels = ctx.info().content_labels;
+  const int walk = static_cast<int>(std::find(labels.begin(), labels.end(), "walk") - labels.begin());
+  bool any_walk = false;
+  for (size_t i = 0; i < ctx.num_clips(); ++i) any_walk = any_walk || ctx.clip(i).content == walk;
+  for (size_t i = 0; i < ctx.num_clips() && i < ctx.real().size(); ++i) {
+    if (any_walk && ctx.clip(i).content != walk) continue;
+    const std::vector<double> v = slower_foot_speed_mps(ctx.real()[i], find_foot_joints(ctx.real()[i]));
+    real_speeds.insert(real_speeds.end(), v.begin(), v.end());
+  }
+  const double real_median = median_of(real_speeds);
+  const struct {
+    PathPhase phase;
+    const char* key;
+    const char* label;
+  } kPhases[] = {{PathPhase::kSteady, "steady", "at speed"},
+                 {PathPhase::kChanging, "changing", "starting, stopping, slowing"},
+                 {PathPhase::kStanding, "standing", "standing"}};
+  for (const auto& p : kPhases) {
+    const int k = static_cast<int>(p.phase);
+    result.rows.push_back({std::string("paths.phases.") + p.key + ".slower_foot_speed_mps",
+                           std::string("slower foot's median speed, m/s (drawn paths, ") + p.label + ")",
+                           median_of(by_phase[k]), p.phase == PathPhase::kStanding ? detail::kNaN : real_median});
+    result.rows.push_back({std::string("paths.phases.") + p.key + ".frames",
+                           std::string("frames (drawn paths, ") + p.label + ")", static_cast<double>(by_phase[k].size()),
+                           detail::kNaN});
+  }
+}
+
 class PathsProtocol : public Protocol {
  public:
   std::string name() const override { return "paths"; }
@@ -29,12 +80,14 @@ class PathsProtocol : public Protocol {
   void run(EvalContext& ctx, EvalResult& result) const override {
     const std::vector<MetricValue>& real_rows = ctx.real_set_metrics();
     ctx.report("paths", 0, 1);
+    std::vector<std::vector<PathPhase>> phases;
     const auto along_paths = sample_synthetic_paths(ctx.run(), ctx.num_samples(), ctx.options().seed + 3000017,
-                                                    ctx.options().temperature, ctx.warmup_frames());
+                                                    ctx.options().temperature, ctx.warmup_frames(), &phases);
     const auto rows = set_metrics(along_paths, ctx.options().metrics);
     for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
       result.rows.push_back({"paths." + rows[r].key, rows[r].label + " (drawn paths)", rows[r].value, real_rows[r].value});
     for (const SyntheticPath& path : synthetic_paths()) per_path_rows(path.name, along_paths, real_rows, ctx.options().metrics, result);
+    phase_rows(along_paths, phases, ctx, result);
     ctx.report("paths", 1, 1);
   }
 };
