@@ -71,4 +71,28 @@ torch::Tensor forward_kinematics(const torch::Tensor& local_rotations, const tor
   return torch::stack(pos, 2);
 }
 
+torch::Tensor joint_ground_speed_mps(const torch::Tensor& positions_m, const torch::Tensor& control,
+                                     const std::vector<int>& joints, double fps) {
+  if (positions_m.dim() != 3 || control.dim() != 3 || control.size(2) < 3 || positions_m.size(0) != control.size(0) ||
+      positions_m.size(1) != control.size(1) || positions_m.size(1) < 2)
+    throw Error("joint_ground_speed_mps: positions [B, T >= 2, D] and control [B, T, >= 3] expected");
+  std::vector<int64_t> x_index, z_index;
+  for (int j : joints) {
+    if (j < 0 || 3 * j + 2 >= positions_m.size(2)) throw Error("joint_ground_speed_mps: joint index out of range");
+    x_index.push_back(3 * j);
+    z_index.push_back(3 * j + 2);
+  }
+  const auto device = positions_m.device();
+  const auto xi = torch::tensor(x_index, torch::kLong).to(device), zi = torch::tensor(z_index, torch::kLong).to(device);
+  const int64_t t = positions_m.size(1);
+  auto x = positions_m.index_select(2, xi), z = positions_m.index_select(2, zi);  // [B, T, K]
+  auto x0 = x.narrow(1, 0, t - 1), z0 = z.narrow(1, 0, t - 1), x1 = x.narrow(1, 1, t - 1), z1 = z.narrow(1, 1, t - 1);
+  auto step = control.narrow(1, 1, t - 1);  // [B, T-1, C]
+  auto turn = step.select(2, 2).unsqueeze(-1), c = torch::cos(turn), s = torch::sin(turn);
+  // R_y(a) (x, z) = (x cos a + z sin a, -x sin a + z cos a): heading a's axes in the frame before.
+  auto dx = step.select(2, 0).unsqueeze(-1) + x1 * c + z1 * s - x0;
+  auto dz = step.select(2, 1).unsqueeze(-1) - x1 * s + z1 * c - z0;
+  return torch::sqrt(dx * dx + dz * dz + 1e-12) * fps;
+}
+
 }  // namespace mosyn::nn

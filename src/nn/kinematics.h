@@ -31,4 +31,14 @@ torch::Tensor forward_kinematics(const torch::Tensor& local_rotations, const tor
                                  const torch::Tensor& offsets, const std::vector<int>& parents,
                                  torch::Tensor* world_rotations = nullptr);
 
+// Horizontal world speed (m/s) of chosen joints from frame t-1 to t, for the positions form
+// (data/representation.h): joint positions in metres relative to the root path in its heading
+// frame (x sideways, y up, z forward), and the control's per-frame root step (sideways, forward in
+// metres in the previous frame's heading frame; turn in radians). Between frames, in the heading
+// frame of t-1, a joint moves by step_t + R_y(turn_t) p_t - p_{t-1}.
+// positions_m [B, T, D] (raw, not standardised), control [B, T, >= 3] (raw); joints: the joint
+// indices j (features 3j..3j+2). Returns [B, T-1, joints.size()]; differentiable.
+torch::Tensor joint_ground_speed_mps(const torch::Tensor& positions_m, const torch::Tensor& control,
+                                     const std::vector<int>& joints, double fps);
+
 }  // namespace mosyn::nn

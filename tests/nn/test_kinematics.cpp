@@ -7,7 +7,11 @@
 #include <random>
 
 #include "core/kinematics.h"
+#include "core/error.h"
 #include "core/rotation.h"
+#include "core/synthetic.h"
+#include "core/trajectory.h"
+#include "data/representation.h"
 #include "nn/kinematics.h"
 
 using namespace mosyn;
@@ -116,4 +120,37 @@ TEST(TorchKinematics, GradientMatchesFiniteDifferences) {
       EXPECT_NEAR(grads[which].view({-1})[i].item<double>(), (up - down) / (2 * h), 1e-6) << which << " " << i;
     }
   }
+}
+
+// The feet's horizontal world speed from positions-form features and the control, against the
+// world positions of core forward kinematics, on a turning, swaying walk whose root path is
+// smoothed (so the hips move relative to it).
+TEST(TorchKinematics, JointGroundSpeedMatchesWorldPositions) {
+  const Skeleton s = make_synthetic_biped();
+  SyntheticWalkOptions o;
+  o.turn_rate_rad_s = 0.6;
+  o.sway_rad = 0.1;
+  const int frames = 45;
+  const double fps = 30.0;
+  const Motion m = make_synthetic_walk(s, frames, fps, o);
+  const data::FeatureLayout layout = data::make_layout(s, data::PoseForm::kPositions, 0, estimate_forward_in_root(s), 0.3);
+  std::vector<float> pose, control;
+  data::encode(s, m, layout, &pose, &control);
+  const WorldPoses world = forward_kinematics(s, m);
+  const std::vector<int> joints = {s.find("Foot_L"), s.find("Foot_R"), s.find("Head")};
+  auto pose_t = torch::from_blob(pose.data(), {1, frames, layout.pose_dim}, torch::kFloat).to(torch::kDouble);
+  auto control_t = torch::from_blob(control.data(), {1, frames, 3}, torch::kFloat).to(torch::kDouble);
+  const auto speed = mosyn::nn::joint_ground_speed_mps(pose_t, control_t, joints, fps);
+  ASSERT_EQ(speed.sizes(), (std::vector<int64_t>{1, frames - 1, 3}));
+  double largest = 0;
+  for (int t = 1; t < frames; ++t)
+    for (size_t k = 0; k < joints.size(); ++k) {
+      Eigen::Vector3d d = (world.position(t, joints[k]) - world.position(t - 1, joints[k])) * s.meters_per_unit;
+      d[1] = 0;
+      const double expected = d.norm() * fps;
+      largest = std::max(largest, expected);
+      EXPECT_NEAR(speed[0][t - 1][static_cast<int64_t>(k)].item<double>(), expected, 2e-3) << t << " " << k;
+    }
+  EXPECT_GT(largest, 1.0);  // the swinging feet move: the comparison is not of zeros
+  EXPECT_THROW(mosyn::nn::joint_ground_speed_mps(pose_t, control_t.narrow(1, 0, 3), joints, fps), mosyn::Error);
 }

@@ -11,6 +11,10 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/synthetic.h"
+#include "core/trajectory.h"
+#include "data/representation.h"
+#include "nn/kinematics.h"
 #include "nn/model.h"
 #include "nn/rvae/rvae.h"
 #include "nn/run.h"
@@ -465,4 +469,54 @@ TEST(Rvae, TrainsThroughSharedTrainer) {
   family.warmup_frames = -2;
   EXPECT_THROW(sample_motions(run, control, 2, 9, 1.0, family), mosyn::Error);
   fs::remove_all(dir);
+}
+
+// The foot-contact term (foot_contact_weight): reported in every loss, added only in training, so
+// the validation loss stays the ELBO; the planted data heels' speed is zero on the data itself.
+// It needs the positions form with the dataset's skeleton and statistics, and says so otherwise.
+TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
+  const Skeleton s = make_synthetic_biped();
+  ModelContext ctx;
+  ctx.pose_form = data::PoseForm::kPositions;
+  ctx.skeleton = s;
+  ctx.layout = data::make_layout(s, data::PoseForm::kPositions, 0, estimate_forward_in_root(s), 0.3);
+  ctx.pose_dim = ctx.layout.pose_dim;
+  ctx.control_dim = 3;
+  ctx.fps = 30;
+  ctx.stats.pose_mean.assign(ctx.pose_dim, 0.0f);
+  ctx.stats.pose_std.assign(ctx.pose_dim, 1.0f);
+  ctx.stats.control_mean.assign(3, 0.0f);
+  ctx.stats.control_std.assign(3, 1.0f);
+  const int frames = 32;
+  std::vector<float> pose, control;
+  SyntheticWalkOptions standing;  // heels still: every frame planted
+  standing.speed_mps = 0.0;
+  standing.leg_swing_rad = 0.0;
+  standing.sway_rad = 0.0;
+  data::encode(s, make_synthetic_walk(s, frames, 30.0, standing), ctx.layout, &pose, &control);
+  Batch batch{torch::from_blob(pose.data(), {1, frames, ctx.pose_dim}, torch::kFloat).clone(),
+              torch::from_blob(control.data(), {1, frames, 3}, torch::kFloat).clone(), {}, {}};
+  nlohmann::json cfg = tiny_config();
+  cfg["foot_contact_weight"] = 2.0;
+  auto m = create_model("rvae", cfg, ctx);
+  auto loss_in = [&](bool training) {
+    m->train(training);
+    torch::manual_seed(4);  // the same latent draw in both modes
+    return m->loss(batch);
+  };
+  const LossTerms eval_terms = loss_in(false), train_terms = loss_in(true);
+  const double planted = eval_terms.terms.at("planted_heel_mps").item<double>();
+  EXPECT_GT(planted, 0.0);  // an untrained model's heels do not stay put
+  EXPECT_NEAR(train_terms.terms.at("planted_heel_mps").item<double>(), planted, 1e-6);
+  EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + 2.0 * planted, 1e-5);
+  // The data's own heels, through the same speed: some planted (under 0.15 m/s).
+  const auto heels = std::vector<int>{s.find("Foot_L"), s.find("Foot_R")};
+  const auto speed = joint_ground_speed_mps(batch.pose, batch.control, heels, 30.0);
+  EXPECT_GT((speed < 0.15).sum().item<int64_t>(), 0);
+  try {
+    create_model("rvae", cfg, small_context());
+    ADD_FAILURE() << "foot_contact_weight accepted a context without a skeleton";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("positions form"), std::string::npos) << e.what();
+  }
 }

@@ -3,12 +3,15 @@
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/utils.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "core/error.h"
 #include "nn/config_json.h"
 #include "nn/gaussian.h"
 #include "nn/options_fields.h"
+#include "nn/kinematics.h"
 #include "nn/label_features.h"
 
 namespace mosyn::nn {
@@ -66,6 +69,9 @@ const OptionFields<RvaeOptions>& rvae_fields() {
           .written_if([](const O& o) { return o.latent_prior != "standard"; })
           .field("prior_hidden", &O::prior_hidden, "width of the conditional prior's hidden layer", at_least(1))
           .written_if([](const O& o) { return o.latent_prior != "standard"; })
+          .field("foot_contact_weight", &O::foot_contact_weight,
+                 "weight of the planted-heel speed term in training (positions form)", at_least(0.0))
+          .written_if([](const O& o) { return o.foot_contact_weight > 0; })
           .rule([](const O& o) {
             return o.latent_prior == "conditional" && o.free_running > 0
                        ? "a conditional latent prior draws every step's latent; free_running must be 0"
@@ -151,6 +157,7 @@ RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     in = out;
   }
   kl_now_ = options.kl_weight;
+  if (options.foot_contact_weight > 0) init_foot_contact();
   if (options.latent_prior == "conditional") {
     prior_hidden = register_module("prior_hidden", torch::nn::Linear(z + options.control_channels.back(), options.prior_hidden));
     prior_out = register_module("prior_out", torch::nn::Linear(options.prior_hidden, 2 * z));
@@ -221,6 +228,45 @@ RvaeImpl::Posterior RvaeImpl::encode(const torch::Tensor& pose) {
   auto h = inference->forward(pad_time(pose));
   auto parts = h.chunk(2, -1);
   return {parts[0], parts[1]};
+}
+
+namespace {
+constexpr double kPlantedMps = 0.15;  // a data heel slower than this is planted (walks: a few cm/s)
+}  // namespace
+
+void RvaeImpl::init_foot_contact() {
+  const Skeleton& skeleton = context_.skeleton;
+  if (context_.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context_.pose_dim)
+    throw Error("rvae: foot_contact_weight needs the positions form with the dataset's skeleton (a model built by "
+                "mosyn train or load_run)");
+  const auto& st = context_.stats;
+  if (static_cast<int>(st.pose_std.size()) != context_.pose_dim || static_cast<int>(st.control_std.size()) != context_.control_dim)
+    throw Error("rvae: foot_contact_weight needs the dataset statistics (a model built by mosyn train or load_run)");
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    std::string name = skeleton.joint_names[j];
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    const bool heel = name.find("foot") != std::string::npos || name.find("ankle") != std::string::npos ||
+                      name.find("heel") != std::string::npos;
+    if (heel && name.find("toe") == std::string::npos) heels_.push_back(j);
+  }
+  if (heels_.size() != 2)
+    throw Error("rvae: foot_contact_weight needs exactly two heel joints (named Foot, Ankle or Heel); the skeleton has " +
+                std::to_string(heels_.size()));
+  pose_mean_ = torch::tensor(st.pose_mean);
+  pose_std_ = torch::tensor(st.pose_std);
+  control_mean_ = torch::tensor(st.control_mean);
+  control_std_ = torch::tensor(st.control_std);
+}
+
+torch::Tensor RvaeImpl::foot_contact_term(const torch::Tensor& x_hat, const torch::Tensor& pose,
+                                          const torch::Tensor& control) const {
+  const auto opts = x_hat.options();
+  const auto pm = pose_mean_.to(opts), ps = pose_std_.to(opts);
+  const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
+  const auto real = joint_ground_speed_mps(pose * ps + pm, ctrl, heels_, context_.fps);
+  const auto made = joint_ground_speed_mps(x_hat * ps + pm, ctrl, heels_, context_.fps);
+  const auto planted = (real < kPlantedMps).to(made.dtype());
+  return (made * planted).sum() / planted.sum().clamp_min(1.0);
 }
 
 std::vector<LabelInput> RvaeImpl::label_inputs() const {
@@ -340,6 +386,12 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     total = total + options_.l1 * pen;
   }
   LossTerms out;
+  if (options_.foot_contact_weight > 0 && t >= 2) {
+    // Training only, so that the validation loss stays the ELBO, comparable across runs.
+    const auto planted = foot_contact_term(x_hat, pose, control);
+    if (is_training()) total = total + options_.foot_contact_weight * planted;
+    out.terms["planted_heel_mps"] = planted.detach();
+  }
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();
   out.terms["kl"] = kl.detach();

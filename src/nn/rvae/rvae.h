@@ -68,6 +68,10 @@ struct RvaeOptions {
   // restarting it at random; training minimises KL(q(z_k | x) || p(z_k | ...)). See the README.
   std::string latent_prior = "standard";
   int prior_hidden = 256;       // width of the conditional prior's hidden layer
+  // Weight of a foot-contact term (beyond the paper): the mean horizontal world speed (m/s) of the
+  // reconstructed heels over the frames where the data's heel is planted (slower than 0.15 m/s),
+  // added to the training loss. Positions form only. 0: off (the paper's loss).
+  double foot_contact_weight = 0.0;
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -187,6 +191,13 @@ class RvaeImpl : public MotionModel {
   ModelContext context_;
   double kl_now_ = 1.0;
   int label_dim_ = 0;
+  // Foot-contact term (options_.foot_contact_weight > 0): heel joint indices and the standardising
+  // statistics that turn features back into metres.
+  std::vector<int> heels_;
+  torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;
+  // The foot-contact term of a batch: x_hat and pose [B, T, D], control [B, T, C], standardised.
+  torch::Tensor foot_contact_term(const torch::Tensor& x_hat, const torch::Tensor& pose, const torch::Tensor& control) const;
+  void init_foot_contact();
 };
 TORCH_MODULE(Rvae);
 
