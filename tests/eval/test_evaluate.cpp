@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <filesystem>
 
 #include "core/error.h"
@@ -229,6 +230,32 @@ TEST_F(EvaluateTest, RealColumnEqualsMetricsOfTheDecodedClips) {
       EXPECT_TRUE(std::isnan(v));
     else
       EXPECT_DOUBLE_EQ(v, m.value);
+  }
+}
+
+// Per content, the real column is the set metrics of that content's decoded clips alone.
+TEST_F(EvaluateTest, PerContentRowsAgainstClipsOfThatContent) {
+  const auto& info = dataset_->info();
+  std::map<int, std::vector<eval::MotionPositions>> by_content;
+  for (int i : result_->clip_indices) {
+    const auto& rec = dataset_->clips("val").at(i);
+    by_content[rec.content].push_back(eval::motion_positions(data::decode_record(info, rec)));
+  }
+  ASSERT_FALSE(by_content.empty());
+  for (const auto& [content, real] : by_content) {
+    if (content < 0) continue;
+    const std::string name = info.content_labels.at(static_cast<size_t>(content));
+    for (const auto& m : eval::set_metrics(real)) {
+      const std::string key = "locomotion." + name + "." + m.key;
+      if (m.key.rfind("footsteps.", 0) != 0 && m.key != "foot_skating_ratio") {
+        EXPECT_THROW(result_->row(key), Error) << key;  // only footsteps and skating per content
+        continue;
+      }
+      const double v = result_->row(key).real;
+      if (std::isnan(m.value)) EXPECT_TRUE(std::isnan(v)) << key;
+      else EXPECT_DOUBLE_EQ(v, m.value) << key;
+      EXPECT_THAT(result_->row(key).label, HasSubstr("(content " + name + ")"));
+    }
   }
 }
 

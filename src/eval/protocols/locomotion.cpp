@@ -26,6 +26,35 @@ void add_replicate_rows(EvalContext& ctx, const std::vector<std::vector<MotionPo
                            real_rows[r].value});
 }
 
+// The footstep and skating rows per content (`locomotion.walk.footsteps.v_tol95_cmps`), model and
+// real clips of that content alone: pooled over contents, a footstep tolerance mixes walks' with
+// runs' (whose flight phases need a far larger one), so the per-content rows are the ones to
+// compare against real clips of the same contents.
+void add_per_content_rows(EvalContext& ctx, EvalResult& result) {
+  const auto& labels = ctx.info().content_labels;
+  for (size_t c = 0; c < labels.size(); ++c) {
+    std::vector<size_t> clips;
+    for (size_t i = 0; i < ctx.num_clips(); ++i)
+      if (ctx.clip(i).content == static_cast<int>(c)) clips.push_back(i);
+    if (clips.empty()) continue;
+    std::vector<MotionPositions> real;
+    for (size_t i : clips) real.push_back(ctx.real()[i]);
+    const auto real_rows = set_metrics(real, ctx.options().metrics);
+    std::vector<std::vector<double>> values(real_rows.size());
+    for (int k = 0; k < ctx.num_samples(); ++k) {
+      std::vector<MotionPositions> set;
+      for (size_t i : clips) set.push_back(ctx.samples()[i][k]);
+      const auto rows = set_metrics(set, ctx.options().metrics);
+      for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) values[r].push_back(rows[r].value);
+    }
+    for (size_t r = 0; r < real_rows.size(); ++r)
+      if (real_rows[r].key.rfind("footsteps.", 0) == 0 || real_rows[r].key == "foot_skating_ratio")
+        result.rows.push_back({"locomotion." + labels[c] + "." + real_rows[r].key,
+                               real_rows[r].label + " (content " + labels[c] + ")", mean_finite(values[r]),
+                               real_rows[r].value});
+  }
+}
+
 class LocomotionProtocol : public Protocol {
  public:
   std::string name() const override { return "locomotion"; }
@@ -34,6 +63,7 @@ class LocomotionProtocol : public Protocol {
   bool applies_to(const nn::ModelTraits&) const override { return true; }
   void run(EvalContext& ctx, EvalResult& result) const override {
     add_replicate_rows(ctx, ctx.samples(), "", "", result);
+    add_per_content_rows(ctx, result);
     if (ctx.options().foot_lock) add_replicate_rows(ctx, ctx.foot_locked_samples(), "foot_locked.", " (foot-locked)", result);
   }
 };
