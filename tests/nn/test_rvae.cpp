@@ -520,3 +520,25 @@ TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
     EXPECT_NE(std::string(e.what()).find("positions form"), std::string::npos) << e.what();
   }
 }
+
+// The conditional prior's log-variance is clamped to [-10, 2]: a prior that asks for a huge spread
+// cannot make generation feed itself ever wider draws (samples stay finite and bounded).
+TEST(Rvae, ConditionalPriorSpreadIsBounded) {
+  nlohmann::json cfg = tiny_config();
+  cfg["latent_prior"] = "conditional";
+  cfg["test_latents"] = "every_step";
+  auto m = std::dynamic_pointer_cast<RvaeImpl>(create_model("rvae", cfg, small_context()));
+  {
+    torch::NoGradGuard no_grad;
+    const int64_t z = m->prior_out->bias.size(0) / 2;
+    m->prior_out->bias.narrow(0, z, z).fill_(50.0);  // a log-variance of 50 asked for
+  }
+  const auto [mean, logvar] = m->conditional_prior(torch::zeros({2, 5}), torch::zeros({2, 10}));
+  EXPECT_DOUBLE_EQ(logvar.max().item<double>(), 2.0);
+  EXPECT_DOUBLE_EQ(logvar.min().item<double>(), 2.0);
+  SampleRequest req;
+  req.control = torch::zeros({2, 64, 3});
+  req.seed = 3;
+  const auto out = m->sample(req);
+  EXPECT_TRUE(torch::isfinite(out.pose).all().item<bool>());
+}
