@@ -230,14 +230,10 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
 
 std::vector<double> slower_foot_speed_mps(const MotionPositions& motion, const FootJoints& feet) {
   if (feet.left_heel < 0 || feet.right_heel < 0) throw Error("slower_foot_speed_mps: needs both heel joints");
-  std::vector<double> out;
-  for (int t = 1; t < motion.num_frames; ++t) {
-    double slower = std::numeric_limits<double>::infinity();
-    for (int j : {feet.left_heel, feet.right_heel})
-      slower = std::min(slower, horizontal(motion.position(t, j) - motion.position(t - 1, j), motion.up_axis).norm());
-    out.push_back(slower * motion.fps);
-  }
-  return out;
+  std::vector<double> slower = horizontal_speed_mps(motion, feet.left_heel);
+  const std::vector<double> right = horizontal_speed_mps(motion, feet.right_heel);
+  for (size_t t = 0; t < slower.size(); ++t) slower[t] = std::min(slower[t], right[t]);
+  return slower;
 }
 
 MotionPositions feature_points_world(const std::vector<float>& pose, const std::vector<float>& control, int dim,

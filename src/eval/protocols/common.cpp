@@ -198,10 +198,16 @@ double split_half_fid(const Eigen::MatrixXd& fr) {
 nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames) {
   nn::SampleExtras extras;
   extras.warmup_frames = warmup_frames;
-  const auto& labels = run.dataset.content_labels;
-  const auto walk = std::find(labels.begin(), labels.end(), "walk");
-  if (run.traits.labels && walk != labels.end()) extras.content = static_cast<int>(walk - labels.begin());
+  const int walk = label_index(run.dataset.content_labels, "walk");
+  if (run.traits.labels && walk >= 0) extras.content = walk;
   return extras;
 }
+
+int label_index(const std::vector<std::string>& labels, const std::string& name) {
+  const auto it = std::find(labels.begin(), labels.end(), name);
+  return it == labels.end() ? -1 : static_cast<int>(it - labels.begin());
+}
+
+bool is_footstep_row(const std::string& key) { return key.rfind("footsteps.", 0) == 0 || key == "foot_skating_ratio"; }
 
 }  // namespace mosyn::eval::detail

@@ -9,21 +9,32 @@ namespace {
 using detail::kNaN;
 using detail::mean_finite;
 
-// Rows of [clips][N] samples: each set metric averaged over the N replicate sets (the set of every
-// clip's k-th sample), beside the real clips' value.
+// Each set metric over the N replicate sets (the set of the given clips' k-th samples), averaged,
+// beside real_rows (the same clips' real metrics); only the rows `keep` accepts.
+template <typename Keep>
 void add_replicate_rows(EvalContext& ctx, const std::vector<std::vector<MotionPositions>>& per_clip,
-                        const std::string& key_prefix, const std::string& label_suffix, EvalResult& result) {
-  const std::vector<MetricValue>& real_rows = ctx.real_set_metrics();
+                        const std::vector<size_t>& clips, const std::vector<MetricValue>& real_rows,
+                        const std::string& key_prefix, const std::string& label_suffix, Keep keep, EvalResult& result) {
   std::vector<std::vector<double>> values(real_rows.size());
   for (int k = 0; k < ctx.num_samples(); ++k) {
     std::vector<MotionPositions> set;
-    for (const auto& s : per_clip) set.push_back(s[k]);
+    for (size_t i : clips) set.push_back(per_clip[i][k]);
     const auto rows = set_metrics(set, ctx.options().metrics);
     for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) values[r].push_back(rows[r].value);
   }
   for (size_t r = 0; r < real_rows.size(); ++r)
-    result.rows.push_back({key_prefix + real_rows[r].key, real_rows[r].label + label_suffix, mean_finite(values[r]),
-                           real_rows[r].value});
+    if (keep(real_rows[r].key))
+      result.rows.push_back({key_prefix + real_rows[r].key, real_rows[r].label + label_suffix, mean_finite(values[r]),
+                             real_rows[r].value});
+}
+
+// Every clip's rows (`key_prefix` + key).
+void add_replicate_rows(EvalContext& ctx, const std::vector<std::vector<MotionPositions>>& per_clip,
+                        const std::string& key_prefix, const std::string& label_suffix, EvalResult& result) {
+  std::vector<size_t> all(per_clip.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  add_replicate_rows(ctx, per_clip, all, ctx.real_set_metrics(), key_prefix, label_suffix,
+                     [](const std::string&) { return true; }, result);
 }
 
 // The footstep and skating rows per content (`locomotion.walk.footsteps.v_tol95_cmps`), model and
@@ -34,24 +45,15 @@ void add_per_content_rows(EvalContext& ctx, EvalResult& result) {
   const auto& labels = ctx.info().content_labels;
   for (size_t c = 0; c < labels.size(); ++c) {
     std::vector<size_t> clips;
-    for (size_t i = 0; i < ctx.num_clips(); ++i)
-      if (ctx.clip(i).content == static_cast<int>(c)) clips.push_back(i);
-    if (clips.empty()) continue;
     std::vector<MotionPositions> real;
-    for (size_t i : clips) real.push_back(ctx.real()[i]);
-    const auto real_rows = set_metrics(real, ctx.options().metrics);
-    std::vector<std::vector<double>> values(real_rows.size());
-    for (int k = 0; k < ctx.num_samples(); ++k) {
-      std::vector<MotionPositions> set;
-      for (size_t i : clips) set.push_back(ctx.samples()[i][k]);
-      const auto rows = set_metrics(set, ctx.options().metrics);
-      for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r) values[r].push_back(rows[r].value);
-    }
-    for (size_t r = 0; r < real_rows.size(); ++r)
-      if (real_rows[r].key.rfind("footsteps.", 0) == 0 || real_rows[r].key == "foot_skating_ratio")
-        result.rows.push_back({"locomotion." + labels[c] + "." + real_rows[r].key,
-                               real_rows[r].label + " (content " + labels[c] + ")", mean_finite(values[r]),
-                               real_rows[r].value});
+    for (size_t i = 0; i < ctx.num_clips(); ++i)
+      if (ctx.clip(i).content == static_cast<int>(c)) {
+        clips.push_back(i);
+        real.push_back(ctx.real()[i]);
+      }
+    if (clips.empty()) continue;
+    add_replicate_rows(ctx, ctx.samples(), clips, set_metrics(real, ctx.options().metrics),
+                       "locomotion." + labels[c] + ".", " (content " + labels[c] + ")", detail::is_footstep_row, result);
   }
 }
 

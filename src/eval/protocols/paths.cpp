@@ -18,7 +18,7 @@ void per_path_rows(const std::string& name, const std::vector<MotionPositions>& 
   if (mine.empty()) return;
   const auto rows = set_metrics(mine, options);
   for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
-    if (rows[r].key.rfind("footsteps.", 0) == 0 || rows[r].key == "foot_skating_ratio")
+    if (detail::is_footstep_row(rows[r].key))
       result.rows.push_back({"paths." + name + "." + rows[r].key, rows[r].label + " (path " + name + ")", rows[r].value,
                              real_rows[r].value});
 }
@@ -44,10 +44,9 @@ void phase_rows(const std::vector<MotionPositions>& along_paths, const std::vect
   }
   // The reference: the held-out "walk" clips when the dataset has that content (the paths ask for
   // walking; a run's flight phase lifts both feet), else every held-out clip.
-  const auto& labels = ctx.info().content_labels;
-  const int walk = static_cast<int>(std::find(labels.begin(), labels.end(), "walk") - labels.begin());
+  const int walk = detail::label_index(ctx.info().content_labels, "walk");
   bool any_walk = false;
-  for (size_t i = 0; i < ctx.num_clips(); ++i) any_walk = any_walk || ctx.clip(i).content == walk;
+  for (size_t i = 0; i < ctx.num_clips(); ++i) any_walk = any_walk || (walk >= 0 && ctx.clip(i).content == walk);
   for (size_t i = 0; i < ctx.num_clips() && i < ctx.real().size(); ++i) {
     if (any_walk && ctx.clip(i).content != walk) continue;
     const std::vector<double> v = slower_foot_speed_mps(ctx.real()[i], find_foot_joints(ctx.real()[i]));

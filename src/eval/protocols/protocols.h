@@ -145,6 +145,12 @@ double recognised_percent(const std::vector<float>& probabilities, int k, const 
 // given warm-up: what the drawn-path protocols sample with.
 nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames);
 
+// Index of `name` in a label vocabulary, -1 when absent.
+int label_index(const std::vector<std::string>& labels, const std::string& name);
+
+// Whether a set-metrics row is one of the footstep or skating rows repeated per path / content.
+bool is_footstep_row(const std::string& key);
+
 }  // namespace detail
 
 }  // namespace mosyn::eval

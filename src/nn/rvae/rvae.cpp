@@ -3,11 +3,10 @@
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/utils.h>
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
 
 #include "core/error.h"
+#include "core/foot_lock.h"
 #include "nn/config_json.h"
 #include "nn/gaussian.h"
 #include "nn/options_fields.h"
@@ -246,15 +245,9 @@ void RvaeImpl::init_foot_contact() {
   const auto& st = context_.stats;
   if (static_cast<int>(st.pose_std.size()) != context_.pose_dim || static_cast<int>(st.control_std.size()) != context_.control_dim)
     throw Error("rvae: foot_contact_weight needs the dataset statistics (a model built by mosyn train or load_run)");
-  for (int j = 0; j < skeleton.num_joints(); ++j) {
-    std::string name = skeleton.joint_names[j];
-    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return std::tolower(ch); });
-    const bool heel = name.find("foot") != std::string::npos || name.find("ankle") != std::string::npos ||
-                      name.find("heel") != std::string::npos;
-    if (heel && name.find("toe") == std::string::npos) heels_.push_back(j);
-  }
+  for (const LegChain& leg : find_legs(skeleton)) heels_.push_back(leg.ankle);
   if (heels_.size() != 2)
-    throw Error("rvae: foot_contact_weight needs exactly two heel joints (named Foot, Ankle or Heel); the skeleton has " +
+    throw Error("rvae: foot_contact_weight needs exactly two legs (ankles named Foot or Ankle); the skeleton has " +
                 std::to_string(heels_.size()));
   pose_mean_ = torch::tensor(st.pose_mean);
   pose_std_ = torch::tensor(st.pose_std);
