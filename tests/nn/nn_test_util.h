@@ -7,7 +7,9 @@
 #include <cmath>
 #include <random>
 
+#include "core/synthetic.h"
 #include "data/dataset.h"
+#include "data/representation.h"
 #include "nn/model.h"
 
 namespace mosyn::nn::testing {
@@ -73,6 +75,37 @@ inline ModelContext small_context(int d = 6, int c = 3) {
   ctx.pose_dim = d;
   ctx.control_dim = c;
   return ctx;
+}
+
+// A positions-form context (data/representation.h, 30 fps) of skeleton s with unit statistics
+// (standardised features are metres), as mosyn train builds for losses that need the skeleton.
+inline ModelContext positions_context(const Skeleton& s) {
+  ModelContext ctx;
+  ctx.pose_form = data::PoseForm::kPositions;
+  ctx.skeleton = s;
+  ctx.layout = data::make_layout(s, data::PoseForm::kPositions, 0, estimate_forward_in_root(s), 0.3);
+  ctx.pose_dim = ctx.layout.pose_dim;
+  ctx.control_dim = 3;
+  ctx.fps = 30;
+  ctx.stats.pose_mean.assign(ctx.pose_dim, 0.0f);
+  ctx.stats.pose_std.assign(ctx.pose_dim, 1.0f);
+  ctx.stats.control_mean.assign(3, 0.0f);
+  ctx.stats.control_std.assign(3, 1.0f);
+  return ctx;
+}
+
+// A synthetic biped standing still for `frames` frames (every heel planted) as a batch of one in
+// the features of positions_context(s).
+inline Batch standing_batch(const Skeleton& s, const ModelContext& ctx, int frames) {
+  SyntheticWalkOptions standing;
+  standing.speed_mps = 0.0;
+  standing.leg_swing_rad = 0.0;
+  standing.sway_rad = 0.0;
+  standing.cycle_hz = 0.0;  // knees, arms and bob hold their phase-0 pose
+  std::vector<float> pose, control;
+  data::encode(s, make_synthetic_walk(s, frames, ctx.fps, standing), ctx.layout, &pose, &control);
+  return Batch{torch::from_blob(pose.data(), {1, frames, ctx.pose_dim}, torch::kFloat).clone(),
+               torch::from_blob(control.data(), {1, frames, 3}, torch::kFloat).clone(), {}, {}};
 }
 
 }  // namespace mosyn::nn::testing

@@ -471,3 +471,51 @@ TEST(MoGlow, PoseTransportKeepsWorldFixedPointsInPlace) {
   EXPECT_TRUE(torch::allclose(moved, features(1), 1e-9, 1e-9)) << moved << "\n" << features(1);
   EXPECT_THROW(PoseTransport(small_context(6)), mosyn::Error);  // rotations form
 }
+
+// The teacher-forced generating direction over a window inverts encode() (residual form, double);
+// the planted-heel term (foot_contact_weight) is, by hand, the mean horizontal length of the heels'
+// residuals (metres here) times the frame rate, for frames drawn from the flow; it is reported in
+// every loss and added only in training, so the validation loss stays the likelihood.
+TEST(MoGlow, FootContactTermIsTheDrawnHeelResidualSpeed) {
+  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
+  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
+  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
+  Batch batch64{batch.pose.to(torch::kFloat64), batch.control.to(torch::kFloat64), {}, {}};
+  torch::manual_seed(1);
+  nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"tau", 2}, {"dropout", 0.0}, {"residual", true},
+                        {"foot_contact_weight", 2.0}};
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  model->to(torch::kFloat64);
+  randomise(*model);
+  const int64_t tau = 2, n = 10;
+  const auto prev = batch64.pose.narrow(1, tau - 1, n), control = batch64.control.narrow(1, tau, n);
+  const auto residual = batch64.pose.narrow(1, tau, n) - model->transport()->apply(prev, control);
+  const auto e = model->encode(batch64.pose, batch64.control);
+  const auto back = model->reverse_window(e.z.transpose(0, 1), e.cond).transpose(0, 1);
+  EXPECT_TRUE(torch::allclose(back, residual, 1e-9, 1e-9));
+
+  auto loss_in = [&](bool training) {
+    model->train(training);
+    torch::manual_seed(4);  // the same latent draw in both modes
+    return model->loss(batch64);
+  };
+  const LossTerms eval_terms = loss_in(false), train_terms = loss_in(true);
+  const double planted = eval_terms.terms.at("planted_heel_mps").item<double>();
+  EXPECT_NEAR(train_terms.terms.at("planted_heel_mps").item<double>(), planted, 1e-9);
+  EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + 2.0 * planted, 1e-9);
+  // By hand: the same draw through the flow, the heels' sideways (x) and forward (z) residuals.
+  model->eval();
+  torch::manual_seed(4);
+  const auto z = torch::randn(e.z.sizes(), torch::kFloat64);
+  const auto drawn = model->reverse_window(z.transpose(0, 1), e.cond).transpose(0, 1);
+  double sum = 0;
+  for (int heel : {s.find("Foot_L"), s.find("Foot_R")})
+    for (int64_t t = 0; t < n; ++t)
+      sum += std::hypot(drawn[0][t][3 * heel].item<double>(), drawn[0][t][3 * heel + 2].item<double>()) * ctx.fps;
+  EXPECT_NEAR(planted, sum / (2 * n), 1e-6);
+  EXPECT_GT(planted, 0.0);
+  // The term needs joint positions with the skeleton.
+  auto bare = small_context(6);
+  bare.pose_form = mosyn::data::PoseForm::kPositions;
+  EXPECT_THROW(create_model("moglow", cfg, bare), mosyn::Error);
+}

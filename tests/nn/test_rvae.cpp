@@ -476,26 +476,8 @@ TEST(Rvae, TrainsThroughSharedTrainer) {
 // It needs the positions form with the dataset's skeleton and statistics, and says so otherwise.
 TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
   const Skeleton s = make_synthetic_biped();
-  ModelContext ctx;
-  ctx.pose_form = data::PoseForm::kPositions;
-  ctx.skeleton = s;
-  ctx.layout = data::make_layout(s, data::PoseForm::kPositions, 0, estimate_forward_in_root(s), 0.3);
-  ctx.pose_dim = ctx.layout.pose_dim;
-  ctx.control_dim = 3;
-  ctx.fps = 30;
-  ctx.stats.pose_mean.assign(ctx.pose_dim, 0.0f);
-  ctx.stats.pose_std.assign(ctx.pose_dim, 1.0f);
-  ctx.stats.control_mean.assign(3, 0.0f);
-  ctx.stats.control_std.assign(3, 1.0f);
-  const int frames = 32;
-  std::vector<float> pose, control;
-  SyntheticWalkOptions standing;  // heels still: every frame planted
-  standing.speed_mps = 0.0;
-  standing.leg_swing_rad = 0.0;
-  standing.sway_rad = 0.0;
-  data::encode(s, make_synthetic_walk(s, frames, 30.0, standing), ctx.layout, &pose, &control);
-  Batch batch{torch::from_blob(pose.data(), {1, frames, ctx.pose_dim}, torch::kFloat).clone(),
-              torch::from_blob(control.data(), {1, frames, 3}, torch::kFloat).clone(), {}, {}};
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const Batch batch = nn::testing::standing_batch(s, ctx, 32);
   nlohmann::json cfg = tiny_config();
   cfg["foot_contact_weight"] = 2.0;
   auto m = create_model("rvae", cfg, ctx);

@@ -70,6 +70,9 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("history_noise", &O::history_noise,
                  "training: std of Gaussian noise on the poses conditioned on (standardised units)", at_least(0.0))
           .written_if([](const O& o) { return o.history_noise > 0; })
+          .field("foot_contact_weight", &O::foot_contact_weight,
+                 "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
+          .written_if([](const O& o) { return o.foot_contact_weight > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -248,6 +251,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
+  if (options.foot_contact_weight > 0) planted_heels_ = PlantedHeelTerm(context, "moglow");
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -335,7 +339,35 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
   }
   e.z = x.transpose(0, 1);
   e.logdet = logdet.transpose(0, 1);
+  e.cond = cond;
   return e;
+}
+
+torch::Tensor MoGlowImpl::reverse_window(const torch::Tensor& z, const torch::Tensor& cond) {
+  std::vector<c10::optional<LstmState>> states(steps.size());
+  auto x = z;
+  for (size_t k = steps.size(); k-- > 0;)
+    x = steps[k]->reverse(x, cond, states[k], steps[k]->linear->weight().inverse());
+  return x;
+}
+
+torch::Tensor MoGlowImpl::planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
+                                            const torch::Tensor& valid) {
+  const int64_t tau = options_.tau, n = e.z.size(1), d = context_.pose_dim, c = context_.control_dim;
+  // Latents on the CPU generator, as the dropout mask, for reproducible training on any device.
+  auto z = torch::randn(e.z.sizes(), torch::dtype(e.z.scalar_type())).to(e.z.device());
+  auto made = reverse_window(z.transpose(0, 1), e.cond).transpose(0, 1);  // [B, T', D]
+  const auto prev_seen = seen.narrow(1, tau - 1, n), control = batch.control.narrow(1, tau, n);
+  if (options_.residual) made = made + transport_.apply(prev_seen, control);
+  // Each predicted frame with the frame before it: [B T', 2, .] pairs, one ground step each.
+  auto pairs = [](const torch::Tensor& before, const torch::Tensor& after, int64_t f) {
+    return torch::stack({before, after}, 2).reshape({-1, 2, f});
+  };
+  const auto made_pairs = pairs(prev_seen, made, d);
+  const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
+  const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), control, c);
+  return planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs,
+                                           valid.defined() ? valid.reshape({-1, 1}) : valid);
 }
 
 torch::Tensor MoGlowImpl::log_likelihood(const torch::Tensor& pose, const torch::Tensor& control) {
@@ -368,12 +400,13 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
   auto logdet = e.logdet;
+  torch::Tensor valid;
   if (batch.frames.defined()) {
     // Predicted frame i is window frame tau + i; a short clip's padding starts at its frames.
     const int64_t predicted = ll.size(1);
     auto first_padded = batch.frames.to(ll.device()).to(torch::kInt64).unsqueeze(1) - options_.tau;
-    auto valid = (torch::arange(predicted, torch::dtype(torch::kInt64).device(ll.device())).unsqueeze(0) < first_padded)
-                     .to(ll.dtype());
+    valid = (torch::arange(predicted, torch::dtype(torch::kInt64).device(ll.device())).unsqueeze(0) < first_padded)
+                .to(ll.dtype());
     const auto count = valid.sum().clamp_min(1.0);
     ll = ll * valid * (valid.numel() / count);  // the mean below then runs over valid frames only
     logdet = logdet * valid * (valid.numel() / count);
@@ -381,6 +414,13 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
   auto nll_frame = -ll.mean();
   LossTerms out;
   out.terms["loss"] = nll_frame / d;
+  if (options_.foot_contact_weight > 0) {
+    // Training only, so that the validation loss stays the likelihood, comparable across runs.
+    const auto seen = offset.defined() ? batch.pose + offset : batch.pose;
+    const auto planted = planted_heel_term(batch, seen, e, valid);
+    if (is_training()) out.terms["loss"] = out.terms["loss"] + options_.foot_contact_weight * planted;
+    out.terms["planted_heel_mps"] = planted.detach();
+  }
   out.terms["nll_frame"] = nll_frame.detach();
   out.terms["nll_dim"] = (nll_frame / d).detach();
   out.terms["logdet_frame"] = logdet.mean().detach();

@@ -19,6 +19,7 @@
 #include <tuple>
 #include <vector>
 
+#include "nn/foot_contact.h"
 #include "nn/model.h"
 #include "nn/moglow/pose_transport.h"
 
@@ -61,6 +62,11 @@ struct MoGlowOptions {
   // frames it scores, so it learns to pull its own slightly-off poses back (with `residual`, the
   // error of each frame would otherwise carry on into the next). 0 = off (the paper).
   double history_noise = 0.0;
+  // Training only, positions form: weight of the planted-heel term (nn/foot_contact.h), the mean
+  // ground speed (m/s) of the heels of frames drawn from the flow (temperature 1, teacher-forced
+  // history) where the data's heels are planted. The likelihood alone leaves planted feet
+  // gliding (models/moglow-lookahead/README.md); 0 = off (the paper). Logged as planted_heel_mps.
+  double foot_contact_weight = 0.0;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -186,6 +192,7 @@ class MoGlowImpl : public MotionModel {
     torch::Tensor z;       // [B, T - tau, D] latents of frames tau..T-1
     torch::Tensor logdet;  // [B, T - tau] sum of log|det| over all steps, per frame
     std::vector<c10::optional<LstmState>> states;  // per flow step, after the last frame
+    torch::Tensor cond;    // [T - tau, B, cond_dim()] the conditioning of frames tau..T-1 (time-major)
   };
   // pose [B, T, D], control [B, T, C] standardised, T > tau. history_keep (optional [B, T] of
   // 0/1) multiplies pose frames before they enter the history (data dropout). init_states
@@ -199,6 +206,13 @@ class MoGlowImpl : public MotionModel {
                  const std::vector<c10::optional<LstmState>>* init_states = nullptr,
                  bool initialize_actnorm = false, const torch::Tensor& labels = {},
                  const torch::Tensor& history_offset = {});
+
+  // The generating direction over a whole window at once, teacher-forced (the history is the
+  // data's, through cond): z [T', B, D] and cond [T', B, cond_dim()] (Encoded::cond) -> what the
+  // flow models [T', B, D] (x_t standardised, or with `residual` x_t minus the transported previous
+  // frame), each coupling LSTM from a zero state. Inverts encode() from zero states exactly; runs
+  // parallel over time because a coupling's network sees only the half it leaves unchanged.
+  torch::Tensor reverse_window(const torch::Tensor& z, const torch::Tensor& cond);
 
   // Per-frame log p(x_t | ...) [B, T - tau] (nats) without dropout.
   torch::Tensor log_likelihood(const torch::Tensor& pose, const torch::Tensor& control);
@@ -230,6 +244,11 @@ class MoGlowImpl : public MotionModel {
   int lookahead_dim_ = 0;
   double dropout_ = 0.0;
   PoseTransport transport_;  // with options_.residual
+  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight > 0
+  // The planted-heel term of a batch (see MoGlowOptions::foot_contact_weight): seen = the poses
+  // conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined = all frames).
+  torch::Tensor planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
+                                  const torch::Tensor& valid);
   // One generated frame: the stream's history, the frame's control [B, C] and its look-ahead
   // features [B, 3 K] (undefined without look-ahead).
   torch::Tensor next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead);

@@ -6,11 +6,9 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "core/foot_lock.h"
 #include "nn/config_json.h"
 #include "nn/gaussian.h"
 #include "nn/options_fields.h"
-#include "nn/kinematics.h"
 #include "nn/label_features.h"
 
 namespace mosyn::nn {
@@ -156,7 +154,7 @@ RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     in = out;
   }
   kl_now_ = options.kl_weight;
-  if (options.foot_contact_weight > 0) init_foot_contact();
+  if (options.foot_contact_weight > 0) planted_heels_ = PlantedHeelTerm(context, "rvae");
   if (options.latent_prior == "conditional") {
     prior_hidden = register_module("prior_hidden", torch::nn::Linear(z + options.control_channels.back(), options.prior_hidden));
     prior_out = register_module("prior_out", torch::nn::Linear(options.prior_hidden, 2 * z));
@@ -231,39 +229,6 @@ RvaeImpl::Posterior RvaeImpl::encode(const torch::Tensor& pose) {
   auto h = inference->forward(pad_time(pose));
   auto parts = h.chunk(2, -1);
   return {parts[0], parts[1]};
-}
-
-namespace {
-constexpr double kPlantedMps = 0.15;  // a data heel slower than this is planted (walks: a few cm/s)
-}  // namespace
-
-void RvaeImpl::init_foot_contact() {
-  const Skeleton& skeleton = context_.skeleton;
-  if (context_.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context_.pose_dim)
-    throw Error("rvae: foot_contact_weight needs the positions form with the dataset's skeleton (a model built by "
-                "mosyn train or load_run)");
-  const auto& st = context_.stats;
-  if (static_cast<int>(st.pose_std.size()) != context_.pose_dim || static_cast<int>(st.control_std.size()) != context_.control_dim)
-    throw Error("rvae: foot_contact_weight needs the dataset statistics (a model built by mosyn train or load_run)");
-  for (const LegChain& leg : find_legs(skeleton)) heels_.push_back(leg.ankle);
-  if (heels_.size() != 2)
-    throw Error("rvae: foot_contact_weight needs exactly two legs (ankles named Foot or Ankle); the skeleton has " +
-                std::to_string(heels_.size()));
-  pose_mean_ = torch::tensor(st.pose_mean);
-  pose_std_ = torch::tensor(st.pose_std);
-  control_mean_ = torch::tensor(st.control_mean);
-  control_std_ = torch::tensor(st.control_std);
-}
-
-torch::Tensor RvaeImpl::foot_contact_term(const torch::Tensor& x_hat, const torch::Tensor& pose,
-                                          const torch::Tensor& control) const {
-  const auto opts = x_hat.options();
-  const auto pm = pose_mean_.to(opts), ps = pose_std_.to(opts);
-  const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
-  const auto real = joint_ground_speed_mps(pose * ps + pm, ctrl, heels_, context_.fps);
-  const auto made = joint_ground_speed_mps(x_hat * ps + pm, ctrl, heels_, context_.fps);
-  const auto planted = (real < kPlantedMps).to(made.dtype());
-  return (made * planted).sum() / planted.sum().clamp_min(1.0);
 }
 
 std::vector<LabelInput> RvaeImpl::label_inputs() const {
@@ -385,7 +350,7 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
   LossTerms out;
   if (options_.foot_contact_weight > 0 && t >= 2) {
     // Training only, so that the validation loss stays the ELBO, comparable across runs.
-    const auto planted = foot_contact_term(x_hat, pose, control);
+    const auto planted = planted_heels_.mean_planted_speed(x_hat, pose, control);
     if (is_training()) total = total + options_.foot_contact_weight * planted;
     out.terms["planted_heel_mps"] = planted.detach();
   }

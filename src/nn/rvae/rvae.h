@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "nn/foot_contact.h"
 #include "nn/model.h"
 
 namespace mosyn::nn {
@@ -191,13 +192,7 @@ class RvaeImpl : public MotionModel {
   ModelContext context_;
   double kl_now_ = 1.0;
   int label_dim_ = 0;
-  // Foot-contact term (options_.foot_contact_weight > 0): heel joint indices and the standardising
-  // statistics that turn features back into metres.
-  std::vector<int> heels_;
-  torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;
-  // The foot-contact term of a batch: x_hat and pose [B, T, D], control [B, T, C], standardised.
-  torch::Tensor foot_contact_term(const torch::Tensor& x_hat, const torch::Tensor& pose, const torch::Tensor& control) const;
-  void init_foot_contact();
+  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight > 0
 };
 TORCH_MODULE(Rvae);
 

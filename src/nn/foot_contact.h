@@ -1,0 +1,44 @@
+// The planted-heel term some families add to their training loss: how fast the heels a model
+// makes move over the ground on the frames where the data's heels are planted. Motion capture
+// of walking holds a planted heel within a few cm/s; a model that lets it glide there skates,
+// which a likelihood (or ELBO) per feature barely notices, as the glide is a few millimetres
+// per frame spread over a few features.
+#pragma once
+
+#include <torch/types.h>
+
+#include <string>
+#include <vector>
+
+#include "nn/context.h"
+
+namespace mosyn::nn {
+
+class PlantedHeelTerm {
+ public:
+  // A data heel slower than this is planted (walks: a few cm/s; a swinging foot, metres per second).
+  static constexpr double kPlantedMps = 0.15;
+
+  PlantedHeelTerm() = default;
+  // From a positions-form context with the dataset's skeleton and statistics (a model built by
+  // mosyn train or load_run): the two ankles of core find_legs. family names the caller in errors.
+  // Throws mosyn::Error when the context cannot give them.
+  PlantedHeelTerm(const ModelContext& context, const std::string& family);
+
+  // Mean horizontal speed (m/s) of the made heels from frame t-1 to t over the (heel, frame) pairs
+  // where the real heel is planted, t = 1..T-1. made, real [B, T, D] and control [B, T, C]
+  // standardised (the control of frame t is the root's step into it); valid (optional [B, T-1],
+  // 0/1) leaves out steps into padded frames. A scalar, differentiable in made; 0 when nothing is
+  // planted.
+  torch::Tensor mean_planted_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
+                                   const torch::Tensor& valid = {}) const;
+
+  const std::vector<int>& heels() const { return heels_; }
+
+ private:
+  std::vector<int> heels_;
+  double fps_ = 30.0;
+  torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]
+};
+
+}  // namespace mosyn::nn

@@ -1,0 +1,42 @@
+// The planted-heel term (nn/foot_contact.h) by hand: a heel that moves 1 cm a frame at 30 fps
+// where the data's heel is planted glides at 0.3 m/s; the valid mask and the planted mask choose
+// which steps count.
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "nn/foot_contact.h"
+#include "nn_test_util.h"
+
+using namespace mosyn;
+using namespace mosyn::nn;
+
+TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch real = nn::testing::standing_batch(s, ctx, frames);  // both heels planted throughout
+  const PlantedHeelTerm term(ctx, "test");
+  ASSERT_EQ(term.heels().size(), 2u);
+  const int64_t left_x = 3 * s.find("Foot_L");  // sideways (x) feature of the left ankle
+  // The left heel slides 1 cm sideways per frame over the second half; the right stays put.
+  auto made = real.pose.clone();
+  for (int t = frames / 2; t < frames; ++t) made[0][t][left_x] += 0.01 * (t - frames / 2 + 1);
+  // Steps into frames 10..19 (indices 9..18 of 19): the left heel at 0.3 m/s, over 19 x 2 planted.
+  const double expected = 10 * 0.3 / (19 * 2);
+  EXPECT_NEAR(term.mean_planted_speed(made, real.pose, real.control).item<double>(), expected, 1e-4);
+  EXPECT_NEAR(term.mean_planted_speed(real.pose, real.pose, real.control).item<double>(), 0.0, 1e-4);  // 30 fps x the 1e-6 m floor of the speed
+  // Only the steps into the first half count: none moves.
+  auto first_half = torch::zeros({1, frames - 1});
+  first_half.narrow(1, 0, frames / 2 - 1).fill_(1.0);
+  EXPECT_NEAR(term.mean_planted_speed(made, real.pose, real.control, first_half).item<double>(), 0.0, 1e-4);  // 30 fps x the 1e-6 m floor of the speed
+  // When the data's own heels move (the made pose taken as data), the moving steps are not
+  // planted: only the still heel and the first half count, all at 0 m/s.
+  EXPECT_NEAR(term.mean_planted_speed(made, made, real.control).item<double>(), 0.0, 1e-4);  // 30 fps x the 1e-6 m floor of the speed
+  // Differentiable in the made pose: the gradient reaches exactly the moved heel's features.
+  auto made_var = made.clone().requires_grad_(true);
+  term.mean_planted_speed(made_var, real.pose, real.control).backward();
+  EXPECT_GT(made_var.grad()[0][frames - 1][left_x].abs().item<double>(), 0.0);
+  EXPECT_EQ(made_var.grad()[0][0][left_x].item<double>(), 0.0);
+  EXPECT_THROW(PlantedHeelTerm(nn::testing::small_context(), "test"), Error);
+  EXPECT_THROW(PlantedHeelTerm().mean_planted_speed(made, real.pose, real.control), Error);
+}
