@@ -519,3 +519,38 @@ TEST(MoGlow, FootContactTermIsTheDrawnHeelResidualSpeed) {
   bare.pose_form = mosyn::data::PoseForm::kPositions;
   EXPECT_THROW(create_model("moglow", cfg, bare), mosyn::Error);
 }
+
+// The free-running planted-heel term (foot_contact_rollout): at temperature 0 its draws are
+// exactly what sampling makes from the window's first tau frames along the window's control
+// (the stream's fused inference net against the reference flow), and the term is their planted
+// heels' speed from frame to frame.
+TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
+  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
+  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
+  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
+  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
+  torch::manual_seed(1);
+  const int64_t tau = 2, k = 4;
+  nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"tau", tau}, {"dropout", 0.0}, {"residual", true},
+                        {"foot_contact_weight", 1.0}, {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}};
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  model->to(torch::kFloat64);
+  randomise(*model);
+  model->eval();
+  const double planted = model->loss(Batch{pose, control, {}, {}}).terms.at("planted_heel_mps").item<double>();
+  SampleRequest req;
+  req.prefix_pose = pose.narrow(1, 0, tau);
+  req.prefix_control = control.narrow(1, 0, tau);
+  req.control = control.narrow(1, tau, k);
+  req.temperature = 0.0;
+  const auto drawn = model->sample(req).pose;  // [1, k, D]
+  double sum = 0;
+  for (int heel : {s.find("Foot_L"), s.find("Foot_R")})
+    for (int64_t t = 0; t < k; ++t) {
+      const auto before = t == 0 ? pose[0][tau - 1] : drawn[0][t - 1];  // standing: no root step
+      sum += std::hypot((drawn[0][t][3 * heel] - before[3 * heel]).item<double>(),
+                        (drawn[0][t][3 * heel + 2] - before[3 * heel + 2]).item<double>()) * ctx.fps;
+    }
+  EXPECT_NEAR(planted, sum / (2 * k), 1e-6);
+  EXPECT_GT(planted, 0.0);
+}

@@ -73,6 +73,13 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("foot_contact_weight", &O::foot_contact_weight,
                  "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
           .written_if([](const O& o) { return o.foot_contact_weight > 0; })
+          .field("foot_contact_rollout", &O::foot_contact_rollout,
+                 "frames of the planted-heel term generated from the model's own history; 0 = teacher-forced",
+                 at_least(0))
+          .written_if([](const O& o) { return o.foot_contact_rollout > 0; })
+          .field("foot_contact_temperature", &O::foot_contact_temperature,
+                 "latent standard deviation of the planted-heel term's draws", at_least(0.0))
+          .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -351,23 +358,53 @@ torch::Tensor MoGlowImpl::reverse_window(const torch::Tensor& z, const torch::Te
   return x;
 }
 
+torch::Tensor MoGlowImpl::rollout(const torch::Tensor& seen, const torch::Tensor& control, const Encoded& e,
+                                  int64_t k) {
+  const int64_t tau = options_.tau, b = seen.size(0), d = context_.pose_dim, hist_dim = tau * d;
+  std::vector<torch::Tensor> frames;  // the history: true frames, then the draws
+  for (int64_t t = 0; t < tau; ++t) frames.push_back(seen.select(1, t));
+  std::vector<c10::optional<LstmState>> states(steps.size());
+  std::vector<torch::Tensor> inverses;
+  for (auto& step : steps) inverses.push_back(step->linear->weight().inverse());
+  for (int64_t i = 0; i < k; ++i) {
+    auto hist = torch::stack(std::vector<torch::Tensor>(frames.end() - tau, frames.end()), 1).reshape({b, hist_dim});
+    auto cond = torch::cat({hist, e.cond[i].narrow(-1, hist_dim, e.cond.size(2) - hist_dim)}, -1).unsqueeze(0);
+    auto x = (torch::randn({1, b, d}, torch::dtype(seen.scalar_type())) * options_.foot_contact_temperature)
+                 .to(seen.device());
+    for (size_t s = steps.size(); s-- > 0;) x = steps[s]->reverse(x, cond, states[s], inverses[s]);
+    auto made = x.squeeze(0);
+    if (options_.residual) made = made + transport_.apply(frames.back(), control.select(1, tau + i));
+    frames.push_back(made);
+  }
+  return torch::stack(std::vector<torch::Tensor>(frames.end() - k, frames.end()), 1);
+}
+
 torch::Tensor MoGlowImpl::planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
                                             const torch::Tensor& valid) {
-  const int64_t tau = options_.tau, n = e.z.size(1), d = context_.pose_dim, c = context_.control_dim;
-  // Latents on the CPU generator, as the dropout mask, for reproducible training on any device.
-  auto z = torch::randn(e.z.sizes(), torch::dtype(e.z.scalar_type())).to(e.z.device());
-  auto made = reverse_window(z.transpose(0, 1), e.cond).transpose(0, 1);  // [B, T', D]
-  const auto prev_seen = seen.narrow(1, tau - 1, n), control = batch.control.narrow(1, tau, n);
-  if (options_.residual) made = made + transport_.apply(prev_seen, control);
-  // Each predicted frame with the frame before it: [B T', 2, .] pairs, one ground step each.
+  const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
+  int64_t n = e.z.size(1);
+  torch::Tensor made, prev;
+  if (options_.foot_contact_rollout > 0) {
+    n = std::min<int64_t>(n, options_.foot_contact_rollout);
+    made = rollout(seen, batch.control, e, n);
+    prev = torch::cat({seen.narrow(1, tau - 1, 1), made.narrow(1, 0, n - 1)}, 1);
+  } else {
+    // Latents on the CPU generator, as the dropout mask, for reproducible training on any device.
+    auto z = torch::randn(e.z.sizes(), torch::dtype(e.z.scalar_type())).to(e.z.device()) *
+             options_.foot_contact_temperature;
+    made = reverse_window(z.transpose(0, 1), e.cond).transpose(0, 1);  // [B, T', D]
+    prev = seen.narrow(1, tau - 1, n);
+    if (options_.residual) made = made + transport_.apply(prev, batch.control.narrow(1, tau, n));
+  }
+  // Each predicted frame with the frame before it: [B n, 2, .] pairs, one ground step each.
   auto pairs = [](const torch::Tensor& before, const torch::Tensor& after, int64_t f) {
     return torch::stack({before, after}, 2).reshape({-1, 2, f});
   };
-  const auto made_pairs = pairs(prev_seen, made, d);
+  const auto made_pairs = pairs(prev, made, d);
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
-  const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), control, c);
+  const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
   return planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs,
-                                           valid.defined() ? valid.reshape({-1, 1}) : valid);
+                                           valid.defined() ? valid.narrow(1, 0, n).reshape({-1, 1}) : valid);
 }
 
 torch::Tensor MoGlowImpl::log_likelihood(const torch::Tensor& pose, const torch::Tensor& control) {

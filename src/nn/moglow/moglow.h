@@ -67,6 +67,11 @@ struct MoGlowOptions {
   // history) where the data's heels are planted. The likelihood alone leaves planted feet
   // gliding (models/moglow-lookahead/README.md); 0 = off (the paper). Logged as planted_heel_mps.
   double foot_contact_weight = 0.0;
+  // Frames the term's draws run free: 0 = every frame of the window drawn at once under the true
+  // history; k > 0 = k frames generated one by one after the window's first tau true frames, each
+  // conditioned on the draws before it, as in sampling (the glide of a model fed its own history).
+  int foot_contact_rollout = 0;
+  double foot_contact_temperature = 1.0;  // latent standard deviation of the term's draws
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -249,6 +254,10 @@ class MoGlowImpl : public MotionModel {
   // conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined = all frames).
   torch::Tensor planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
                                   const torch::Tensor& valid);
+  // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
+  // of frames tau..tau+k-1 generated from seen frames 0..tau-1, conditioned as e.cond apart from
+  // the history.
+  torch::Tensor rollout(const torch::Tensor& seen, const torch::Tensor& control, const Encoded& e, int64_t k);
   // One generated frame: the stream's history, the frame's control [B, C] and its look-ahead
   // features [B, 3 K] (undefined without look-ahead).
   torch::Tensor next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead);
