@@ -350,11 +350,17 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
   return e;
 }
 
+std::vector<torch::Tensor> MoGlowImpl::linear_inverses() const {
+  std::vector<torch::Tensor> out;
+  for (const auto& step : steps) out.push_back(step->linear->weight().inverse());
+  return out;
+}
+
 torch::Tensor MoGlowImpl::reverse_window(const torch::Tensor& z, const torch::Tensor& cond) {
   std::vector<c10::optional<LstmState>> states(steps.size());
+  const auto inverses = linear_inverses();
   auto x = z;
-  for (size_t k = steps.size(); k-- > 0;)
-    x = steps[k]->reverse(x, cond, states[k], steps[k]->linear->weight().inverse());
+  for (size_t k = steps.size(); k-- > 0;) x = steps[k]->reverse(x, cond, states[k], inverses[k]);
   return x;
 }
 
@@ -364,8 +370,7 @@ torch::Tensor MoGlowImpl::rollout(const torch::Tensor& seen, const torch::Tensor
   std::vector<torch::Tensor> frames;  // the history: true frames, then the draws
   for (int64_t t = 0; t < tau; ++t) frames.push_back(seen.select(1, t));
   std::vector<c10::optional<LstmState>> states(steps.size());
-  std::vector<torch::Tensor> inverses;
-  for (auto& step : steps) inverses.push_back(step->linear->weight().inverse());
+  const auto inverses = linear_inverses();
   for (int64_t i = 0; i < k; ++i) {
     auto hist = torch::stack(std::vector<torch::Tensor>(frames.end() - tau, frames.end()), 1).reshape({b, hist_dim});
     auto cond = torch::cat({hist, e.cond[i].narrow(-1, hist_dim, e.cond.size(2) - hist_dim)}, -1).unsqueeze(0);

@@ -257,6 +257,8 @@ class MoGlowImpl : public MotionModel {
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
   // of frames tau..tau+k-1 generated from seen frames 0..tau-1, conditioned as e.cond apart from
   // the history.
+  // W^-1 of every step's invertible linear map, in step order (differentiable).
+  std::vector<torch::Tensor> linear_inverses() const;
   torch::Tensor rollout(const torch::Tensor& seen, const torch::Tensor& control, const Encoded& e, int64_t k);
   // One generated frame: the stream's history, the frame's control [B, C] and its look-ahead
   // features [B, 3 K] (undefined without look-ahead).
