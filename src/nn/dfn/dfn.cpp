@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "core/error.h"
 
@@ -153,6 +154,19 @@ torch::Tensor reparameterise(const DfnDynamicsImpl::Gaussian& g) {
   return g.mean + torch::exp(0.5 * g.logvar) * eps;
 }
 
+// The latents that advance the state under scheduled prior draws (DfnOptions::prior_rollout): for
+// each window, with probability p the priors' draws (f ~ p(f | h), s ~ p(s | m(f, h), h), as
+// step_stream generates), else the posteriors' s and f. Reparameterised, so the gradient reaches
+// the priors through the states that follow.
+std::pair<torch::Tensor, torch::Tensor> scheduled_latents(DfnDynamicsImpl& dyn, double p, const torch::Tensor& s,
+                                                          const torch::Tensor& f, const DfnDynamicsImpl::Gaussian& pf,
+                                                          const torch::Tensor& h) {
+  auto f_prior = reparameterise(pf);
+  auto s_prior = reparameterise(dyn.prior_s(dyn.decode_m(f_prior, h), h));
+  auto use = (torch::rand({s.size(0), 1}, torch::TensorOptions().dtype(s.scalar_type())) < p).to(s.options());
+  return {use * s_prior + (1 - use) * s, use * f_prior + (1 - use) * f};
+}
+
 }  // namespace
 
 LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
@@ -184,7 +198,9 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     ss.push_back(s);
     ps_mean.push_back(ps.mean);
     ps_logvar.push_back(ps.logvar);
-    state = dyn->step(state, s, f);
+    auto s_next = s, f_next = f;
+    if (options_.prior_rollout > 0) std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t);
+    state = dyn->step(state, s_next, f_next);
   }
   auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);

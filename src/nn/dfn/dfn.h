@@ -74,6 +74,13 @@ struct DfnOptions {
   // that shrinks makes its term's gradient grow as 1 / variance. (Session 12's divergence on
   // Bandai-Namco was not this: the variances stayed near e^-2; a lower lr cured it. README.)
   double observation_logvar_min = -8.0;
+  // Scheduled prior draws in the dynamics stage: at each training step and window, with this
+  // probability the state advances with s and f drawn from the priors (f ~ p(f | h), m decoded
+  // from it, s ~ p(s | m, h)), as at generation, instead of from the posteriors; every loss term
+  // is still the posterior's. The later steps then start from states the model's own draws reach,
+  // so the priors learn to bring open-loop motion back to the data (scheduled sampling, Bengio et
+  // al. 2015, in the latent space). 0 = the paper's training: always the posteriors.
+  double prior_rollout = 0.0;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when

@@ -67,6 +67,9 @@ const OptionFields<DfnOptions>& dfn_fields() {
                  at_least(0.0))
           .field("observation_logvar_min", &O::observation_logvar_min,
                  "floor on the log-variances of p(z | s, h), p(m | f, h) and the TD prediction (-8: none)", in_range(-8.0, 8.0))
+          .field("prior_rollout", &O::prior_rollout,
+                 "dynamics stage: probability that the state advances with prior draws (0 = posteriors)",
+                 in_range(0.0, 1.0))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")

@@ -407,6 +407,39 @@ TEST(Dfn, FreeNatsFloorEachKlTermInTheLoss) {
   }
 }
 
+TEST(Dfn, PriorRolloutAdvancesTheStateWithThePriorsDraws) {
+  // With only the code likelihood in the loss, the priors p(f | h), p(m | f, h) and p(s | m, h)
+  // can receive a gradient only through states that their draws advanced: none at prior_rollout
+  // 0, some at 1.
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  Batch b;
+  torch::manual_seed(4);
+  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
+  b.control = torch::randn({3, 14, 3}) * 0.3;
+  auto prior_gradient = [&](double p) {
+    auto config = tiny();
+    config["prior_rollout"] = p;
+    config["kl_weight"] = 0.0;
+    config["m_weight"] = 0.0;
+    config["td_weight"] = 0.0;
+    auto m = make(c, config);
+    m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
+    torch::manual_seed(6);
+    m->zero_grad();
+    m->loss(b).loss().backward();
+    double total = 0;
+    for (auto* net : {&m->dyn->prior_f_net, &m->dyn->m_net, &m->dyn->prior_s_net})
+      for (const auto& w : (*net)->parameters())
+        if (w.grad().defined()) total += w.grad().abs().sum().item<double>();
+    return total;
+  };
+  EXPECT_EQ(prior_gradient(0.0), 0.0);
+  EXPECT_GT(prior_gradient(1.0), 1e-6);
+  auto bad = tiny();
+  bad["prior_rollout"] = 1.5;
+  EXPECT_THROW(DfnOptions::from_json(bad), Error);
+}
+
 TEST(Dfn, ObservationLogVarianceFloorBoundsTheCodeAndFutureTerms) {
   // log p(z | s, h) by hand: -1/2 sum(log 2 pi + lv + (z - mean)^2 / e^lv), lv the floored
   // variance; below the floor no gradient reaches the log-variance parameter.
