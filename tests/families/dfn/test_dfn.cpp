@@ -73,6 +73,15 @@ Motion random_motion(const Skeleton& s, int frames, unsigned seed) {
   return m;
 }
 
+// Three 14-frame windows of small random standardised features (seed 4) for the loss tests.
+Batch random_batch(const ModelContext& c) {
+  Batch b;
+  torch::manual_seed(4);
+  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
+  b.control = torch::randn({3, 14, c.control_dim}) * 0.3;
+  return b;
+}
+
 double dist(const torch::Tensor& p, int a, int b) { return (p[a] - p[b]).norm().item<double>(); }
 
 }  // namespace
@@ -382,10 +391,7 @@ TEST(Dfn, ZeroStageStepsSkipTrainedStages) {
 
 TEST(Dfn, FreeNatsFloorEachKlTermInTheLoss) {
   const ModelContext c = skeleton_context(data::PoseForm::kPositions);
-  Batch b;
-  torch::manual_seed(4);
-  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
-  b.control = torch::randn({3, 14, 3}) * 0.3;
+  const Batch b = random_batch(c);
   for (double free : {0.0, 0.05, 1e3}) {
     auto config = tiny();
     config["kl_free_nats"] = free;
@@ -412,10 +418,7 @@ TEST(Dfn, PriorRolloutAdvancesTheStateWithThePriorsDraws) {
   // can receive a gradient only through states that their draws advanced: none at prior_rollout
   // 0, some at 1.
   const ModelContext c = skeleton_context(data::PoseForm::kPositions);
-  Batch b;
-  torch::manual_seed(4);
-  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
-  b.control = torch::randn({3, 14, 3}) * 0.3;
+  const Batch b = random_batch(c);
   auto prior_gradient = [&](double p) {
     auto config = tiny();
     config["prior_rollout"] = p;
@@ -474,10 +477,7 @@ TEST(Dfn, ObservationLogVarianceFloorBoundsTheCodeAndFutureTerms) {
   }
   // The TD prediction's log-variances (about 0 at initialisation) are floored in the loss too.
   const ModelContext c = skeleton_context(data::PoseForm::kPositions);
-  Batch b;
-  torch::manual_seed(4);
-  b.pose = torch::randn({3, 14, c.pose_dim}) * 0.3;
-  b.control = torch::randn({3, 14, 3}) * 0.3;
+  const Batch b = random_batch(c);
   for (double floor : {-8.0, 2.0}) {
     config["observation_logvar_min"] = floor;
     auto m = make(c, config);
