@@ -91,6 +91,16 @@ void add_data_commands(CLI::App& app, Action* action) {
                    "add copies of every clip played this many times as fast, comma-separated (e.g. 1.2,1.4: walks "
                    "faster than the takes; cadence scales, feet stay planted)")
       ->delimiter(',');
+  prep->add_option("--retime-min-speed", o.retime_min_speed_mps,
+                   "retime only clips whose mean root speed is at least this many m/s (0 = no bound): the fastest "
+                   "walks played faster widen the speeds without a second cadence at speeds the takes cover")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
+  prep->add_option("--retime-max-speed", o.retime_max_speed_mps,
+                   "retime only clips whose mean root speed is at most this many m/s (0 = no bound), e.g. to leave "
+                   "runs out")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
   prep->add_option("--stats-from", o.stats_from,
                    "standardise with the stats.json of this dataset or run directory instead of this dataset's own "
                    "(same features), so a model warm-started from that run keeps its input units")

@@ -228,6 +228,10 @@ json info_to_json(const DatasetInfo& info) {
   j["source_layout"] = info.source_layout;
   j["augmentation"] = {{"mirror", info.augment_mirror}, {"reverse", info.augment_reverse}};
   if (!info.augment_retime.empty()) j["augmentation"]["retime"] = info.augment_retime;
+  if (info.augment_retime_min_speed_mps > 0)
+    j["augmentation"]["retime_min_speed_mps"] = info.augment_retime_min_speed_mps;
+  if (info.augment_retime_max_speed_mps > 0)
+    j["augmentation"]["retime_max_speed_mps"] = info.augment_retime_max_speed_mps;
   if (!info.stats_from.empty()) j["stats_from"] = info.stats_from;
   if (!info.split_from.empty()) j["split_from"] = info.split_from;
   j["tpose"] = info.tpose;
@@ -282,6 +286,11 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
     info.augment_retime = optional_key(a, "retime", std::vector<double>{}, file);
     for (double f : info.augment_retime)
       if (!(f > 0) || !std::isfinite(f)) throw ParseError(file, 0, "augmentation.retime factors must be positive");
+    info.augment_retime_min_speed_mps = optional_key(a, "retime_min_speed_mps", 0.0, file);
+    info.augment_retime_max_speed_mps = optional_key(a, "retime_max_speed_mps", 0.0, file);
+    for (double v : {info.augment_retime_min_speed_mps, info.augment_retime_max_speed_mps})
+      if (!(v >= 0) || !std::isfinite(v))
+        throw ParseError(file, 0, "augmentation.retime_min_speed_mps / retime_max_speed_mps must be 0 or positive");
   }
   info.tpose = optional_key(j, "tpose", std::string("auto"), file);
   info.stats_from = optional_key(j, "stats_from", std::string(), file);
@@ -543,6 +552,11 @@ std::string format_seconds(double s) {
   std::snprintf(buf, sizeof(buf), "%.3g s", s);
   return buf;
 }
+std::string format_speed(double mps) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.3g m/s", mps);
+  return buf;
+}
 }  // namespace
 
 std::string dataset_summary(const Dataset& dataset) {
@@ -572,6 +586,11 @@ std::string dataset_summary(const Dataset& dataset) {
       std::snprintf(factor, sizeof(factor), "%g", info.augment_retime[i]);
       out << (i ? ", x" : "") << factor;
     }
+    if (info.augment_retime_min_speed_mps > 0) out << " (clips from " << format_speed(info.augment_retime_min_speed_mps);
+    if (info.augment_retime_max_speed_mps > 0)
+      out << (info.augment_retime_min_speed_mps > 0 ? " to " : " (clips up to ")
+          << format_speed(info.augment_retime_max_speed_mps);
+    if (info.augment_retime_min_speed_mps > 0 || info.augment_retime_max_speed_mps > 0) out << ")";
   }
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";

@@ -95,6 +95,8 @@ struct DatasetInfo {
   bool augment_mirror = false;            // mirrored copies of every clip are in the caches
   bool augment_reverse = false;           // time-reversed copies are in the caches
   std::vector<double> augment_retime;     // playback-speed factors of the retimed copies (empty: none)
+  // Only clips whose mean root speed lies in [min, max] were retimed (0: no bound).
+  double augment_retime_min_speed_mps = 0, augment_retime_max_speed_mps = 0;
   // Where stats.json came from when not computed on this dataset's training split
   // (PrepareOptions::stats_from); empty otherwise.
   std::string stats_from;

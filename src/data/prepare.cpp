@@ -138,6 +138,11 @@ void check_options(const PrepareOptions& o) {
   for (double f : o.retime_factors)
     if (!(f > 0) || !std::isfinite(f) || std::abs(f - 1) < 1e-6)
       throw Error("prepare: retime factors must be positive and not 1 (got " + std::to_string(f) + ")");
+  if (!(o.retime_min_speed_mps >= 0) || !std::isfinite(o.retime_min_speed_mps) || !(o.retime_max_speed_mps >= 0) ||
+      !std::isfinite(o.retime_max_speed_mps))
+    throw Error("prepare: retime_min_speed_mps and retime_max_speed_mps must be 0 (no bound) or positive");
+  if (o.retime_max_speed_mps > 0 && o.retime_max_speed_mps < o.retime_min_speed_mps)
+    throw Error("prepare: retime_max_speed_mps is below retime_min_speed_mps: no clip would be retimed");
 }
 
 // Lists and filters every input; builds the shared vocabularies and the file items.
@@ -287,6 +292,10 @@ DatasetInfo describe_dataset(const PrepareOptions& o, DatasetInfo info, const Sk
   info.augment_mirror = o.mirror;
   info.augment_reverse = o.reverse;
   info.augment_retime = o.retime_factors;
+  if (!o.retime_factors.empty()) {
+    info.augment_retime_min_speed_mps = o.retime_min_speed_mps;
+    info.augment_retime_max_speed_mps = o.retime_max_speed_mps;
+  }
   info.tpose = to_string(o.tpose);
   info.drop_joint_patterns = o.drop_joint_patterns;
   info.keep_joint_patterns = o.keep_joint_patterns;
@@ -345,7 +354,21 @@ struct Augmentation {
   bool mirror = false;
   bool reverse = false;
   std::vector<double> retime;
+  double retime_min_speed_mps = 0;  // clips slower than this get no retimed copies
+  double retime_max_speed_mps = 0;  // nor clips faster than this, when > 0
 };
+
+// Mean horizontal speed of the root over a motion, m/s (0 for fewer than 2 frames).
+double mean_root_speed_mps(const Skeleton& skeleton, const Motion& motion, int root_joint) {
+  if (motion.num_frames < 2) return 0;
+  double distance = 0;
+  for (int t = 1; t < motion.num_frames; ++t) {
+    Eigen::Vector3d step = motion.translation(t, root_joint) - motion.translation(t - 1, root_joint);
+    step[skeleton.up_axis] = 0;
+    distance += step.norm();
+  }
+  return distance * skeleton.meters_per_unit * motion.fps / (motion.num_frames - 1);
+}
 
 // The feature records of one file's clip cut to keep_frames: the original, then its augmented
 // copies (mirrored with mirrored labels, reversed, then each of those retimed) next to it.
@@ -383,7 +406,12 @@ std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const Da
       for (size_t k = 0; k < base; ++k) copies.push_back({reverse_frames(copies[k].motion), copies[k].mirrored, true});
     }
     for (const Copy& c : copies) add(c.motion, c.mirrored, c.reversed, false);
-    for (double factor : o.retime)
+    bool in_band = true;
+    if (o.retime_min_speed_mps > 0 || o.retime_max_speed_mps > 0) {
+      const double speed_mps = mean_root_speed_mps(clip.skeleton, clip.motion, info.layout.root_joint);
+      in_band = speed_mps >= o.retime_min_speed_mps && (o.retime_max_speed_mps <= 0 || speed_mps <= o.retime_max_speed_mps);
+    }
+    for (double factor : in_band ? o.retime : std::vector<double>{})
       for (const Copy& c : copies) {
         const Motion retimed = retime(c.motion, factor);
         if (retimed.num_frames >= 2) add(retimed, c.mirrored, c.reversed, true);
@@ -456,7 +484,8 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
-  const Augmentation augmentation{o.mirror, o.reverse, o.retime_factors};
+  const Augmentation augmentation{o.mirror, o.reverse, o.retime_factors, o.retime_min_speed_mps,
+                                    o.retime_max_speed_mps};
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {

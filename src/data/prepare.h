@@ -52,6 +52,12 @@ struct PrepareOptions {
   // becomes ambiguous (on Bandai-Namco it cost the recurrent VAE its held-out footsteps,
   // models/rvae-locomotion/README.md). Each factor positive, not 1.
   std::vector<double> retime_factors;
+  // When > 0, only clips whose mean horizontal root speed (m/s, over the whole clip) is at least
+  // retime_min_speed_mps (and, when retime_max_speed_mps > 0, at most that) get the retimed
+  // copies: the fastest walks played faster fill the speeds the takes lack without putting a
+  // second cadence beside the takes' own at the speeds they already cover.
+  double retime_min_speed_mps = 0;
+  double retime_max_speed_mps = 0;  // 0 = no upper bound
   // When set, a dataset or run directory whose stats.json standardises this dataset instead of its
   // own training statistics (same pose and control dims), so that a model warm-started from that
   // run (`train --init-from`) reads the new data in the units its weights were trained on.

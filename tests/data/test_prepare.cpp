@@ -242,6 +242,52 @@ TEST(Prepare, RetimedCopiesAndBorrowedStats) {
   fs::remove_all(plain_dir);
 }
 
+// retime_min/max_speed_mps keep the retimed copies to clips whose mean root speed lies in the band:
+// a minimum above every clip's speed adds none, one below every clip's retimes all, a band that
+// holds no clip none; the bounds are recorded in dataset.json, and negative or crossed ones refused.
+TEST(Prepare, RetimeOnlyClipsInASpeedBand) {
+  const fs::path out = temp_path("retime_min");
+  fs::remove_all(out);
+  PrepareOptions o = basic_options(out.string());
+  o.retime_factors = {1.5};
+  o.retime_min_speed_mps = 1000.0;
+  prepare_dataset(o);
+  const Dataset none = Dataset::open(out.string());
+  EXPECT_DOUBLE_EQ(none.info().augment_retime_min_speed_mps, 1000.0);
+  size_t originals = 0;
+  for (const char* split : {"train", "val"})
+    for (const ClipRecord& r : none.clips(split)) {
+      EXPECT_FALSE(r.retimed);
+      ++originals;
+    }
+  o.retime_min_speed_mps = 1e-6;
+  o.overwrite = true;
+  prepare_dataset(o);
+  const Dataset all = Dataset::open(out.string());
+  size_t retimed = 0, total = 0;
+  for (const char* split : {"train", "val"})
+    for (const ClipRecord& r : all.clips(split)) {
+      retimed += r.retimed ? 1 : 0;
+      ++total;
+    }
+  EXPECT_EQ(total, 2 * originals);
+  EXPECT_EQ(retimed, originals);
+  o.retime_min_speed_mps = 0;
+  o.retime_max_speed_mps = 1e-7;  // a band that holds no clip
+  prepare_dataset(o);
+  for (const char* split : {"train", "val"})
+    for (const ClipRecord& r : Dataset::open(out.string()).clips(split)) EXPECT_FALSE(r.retimed);
+  o.retime_max_speed_mps = 1000.0;
+  prepare_dataset(o);
+  EXPECT_DOUBLE_EQ(Dataset::open(out.string()).info().augment_retime_max_speed_mps, 1000.0);
+  o.retime_min_speed_mps = -1;
+  EXPECT_THROW(prepare_dataset(o), Error);
+  o.retime_min_speed_mps = 2.0;
+  o.retime_max_speed_mps = 1.0;
+  EXPECT_THROW(prepare_dataset(o), Error);
+  fs::remove_all(out);
+}
+
 // split_from keeps another dataset's split when contents are added: its held-out files stay held
 // out and its training files in training, whatever the new seed; the added files are split too.
 TEST(Prepare, SplitFromKeepsHeldOutFilesHeldOut) {

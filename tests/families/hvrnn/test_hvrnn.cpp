@@ -176,7 +176,9 @@ TEST(HvrnnLoss, FreeNatsFloorTheKlInTheLoss) {
     const double expected =
         term("recon") + 0.7 * std::max(term("kl"), free) + m.options().validity_weight * term("validity");
     EXPECT_NEAR(out.loss().item<double>(), expected, 1e-5 * std::max(1.0, std::abs(expected))) << "free " << free;
-    if (free == 1e3) EXPECT_LT(term("kl"), free);  // the floor, not the KL, entered the loss
+    if (free == 1e3) {
+      EXPECT_LT(term("kl"), free);  // the floor, not the KL, entered the loss
+    }
   }
   EXPECT_THROW(HvrnnOptions::from_json({{"kl_free_nats", -1.0}}), Error);
 }
