@@ -51,4 +51,30 @@ std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, in
   return out;
 }
 
+std::vector<MotionPositions> steady_parts(const std::vector<MotionPositions>& along_paths,
+                                          const std::vector<std::vector<PathPhase>>& phases, int min_frames) {
+  std::vector<MotionPositions> parts;
+  for (size_t m = 0; m < along_paths.size() && m < phases.size(); ++m) {
+    const MotionPositions& motion = along_paths[m];
+    const int frames = std::min(motion.num_frames, static_cast<int>(phases[m].size()));
+    for (int t = 0; t < frames;) {
+      if (phases[m][t] != PathPhase::kSteady) {
+        ++t;
+        continue;
+      }
+      int end = t;
+      while (end < frames && phases[m][end] == PathPhase::kSteady) ++end;
+      if (end - t >= min_frames) {
+        MotionPositions part = motion;
+        part.num_frames = end - t;
+        part.positions_m.assign(motion.positions_m.begin() + static_cast<std::ptrdiff_t>(t) * motion.num_joints,
+                                motion.positions_m.begin() + static_cast<std::ptrdiff_t>(end) * motion.num_joints);
+        parts.push_back(std::move(part));
+      }
+      t = end;
+    }
+  }
+  return parts;
+}
+
 }  // namespace mosyn::eval

@@ -45,4 +45,12 @@ std::vector<MotionPositions> sample_synthetic_paths(const nn::LoadedRun& run, in
                                                     double temperature, int warmup_frames,
                                                     std::vector<std::vector<PathPhase>>* phases = nullptr);
 
+// The parts of motions where their paths ask for steady walking (PathPhase::kSteady runs of at
+// least min_frames frames; phases[m] per frame of along_paths[m], extra frames on either side
+// ignored), each cut out as a motion of its own (name, skeleton and fps kept). The takes hold no
+// start or stop, so these parts compare like for like with them: a stop at a path's end is one long
+// contact per foot, and it lengthens the mean step of the whole sample however natural the stop.
+std::vector<MotionPositions> steady_parts(const std::vector<MotionPositions>& along_paths,
+                                          const std::vector<std::vector<PathPhase>>& phases, int min_frames);
+
 }  // namespace mosyn::eval

@@ -190,8 +190,36 @@ TEST_F(EvaluateTest, DrawnPathsAndFootLockedRows) {
   EXPECT_EQ(phase_frames + static_cast<double>(eval::synthetic_paths().size()), r.row("paths.frames").model);
   EXPECT_TRUE(std::isnan(r.row("paths.phases.standing.slower_foot_speed_mps").real));  // no real standing
   EXPECT_TRUE(std::isfinite(r.row("paths.phases.steady.slower_foot_speed_mps").real));
+  // The steady parts' footsteps beside the same real clips.
+  EXPECT_EQ(r.row("paths.steady.foot_skating_ratio").real, plain.row("foot_skating_ratio").real);
+  EXPECT_THAT(r.row("paths.steady.footsteps.v_tol95_cmps").label, HasSubstr("(drawn paths, at speed)"));
   EXPECT_TRUE(std::isfinite(r.row("foot_locked.foot_skating_ratio").model));
   EXPECT_THAT(r.row("foot_locked.foot_skating_ratio").label, HasSubstr("(foot-locked)"));
+}
+
+// steady_parts cuts out the runs of steady frames that last at least min_frames, frame for frame.
+TEST(PathProtocol, SteadyPartsCutTheLongSteadyRuns) {
+  eval::MotionPositions m;
+  m.name = "curve";
+  m.num_frames = 100;
+  m.num_joints = 2;
+  for (int t = 0; t < m.num_frames; ++t)
+    for (int j = 0; j < m.num_joints; ++j) m.positions_m.emplace_back(t, j, 0.5 * t);
+  using P = eval::PathPhase;
+  std::vector<P> phases;
+  for (auto [phase, n] : std::vector<std::pair<P, int>>{
+           {P::kChanging, 10}, {P::kSteady, 40}, {P::kChanging, 5}, {P::kSteady, 10}, {P::kStanding, 5}, {P::kSteady, 30}})
+    phases.insert(phases.end(), n, phase);
+  const auto parts = eval::steady_parts({m}, {phases}, 30);
+  ASSERT_EQ(parts.size(), 2u);  // the 10-frame run is too short
+  EXPECT_EQ(parts[0].num_frames, 40);
+  EXPECT_EQ(parts[0].name, "curve");
+  EXPECT_EQ(parts[0].position(0, 1), Eigen::Vector3d(10, 1, 5));
+  EXPECT_EQ(parts[0].position(39, 0), Eigen::Vector3d(49, 0, 24.5));
+  EXPECT_EQ(parts[1].num_frames, 30);
+  EXPECT_EQ(parts[1].position(0, 0), Eigen::Vector3d(70, 0, 35));
+  EXPECT_EQ(parts[1].positions_m.size(), 60u);
+  EXPECT_TRUE(eval::steady_parts({m}, {phases}, 41).empty());
 }
 
 // A drawn path's phases: standing at the pause and at the end, starting and stopping around them,

@@ -1,5 +1,6 @@
 // Drawn paths (eval/path_protocol.h) scored with the set metrics against the real clips.
 #include <algorithm>
+#include <cmath>
 
 #include "eval/path_protocol.h"
 #include "eval/protocols/protocols.h"
@@ -20,6 +21,20 @@ void per_path_rows(const std::string& name, const std::vector<MotionPositions>& 
   for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
     if (detail::is_footstep_row(rows[r].key))
       result.rows.push_back({"paths." + name + "." + rows[r].key, rows[r].label + " (path " + name + ")", rows[r].value,
+                             real_rows[r].value});
+}
+
+// Footstep and skating rows of the steady parts (`paths.steady.footsteps.*`), beside the real clips.
+void steady_rows(const std::vector<MotionPositions>& along_paths, const std::vector<std::vector<PathPhase>>& phases,
+                 const std::vector<MetricValue>& real_rows, const SetMetricsOptions& options, EvalResult& result) {
+  if (along_paths.empty()) return;
+  const int min_frames = static_cast<int>(std::lround(along_paths[0].fps));  // one second
+  const auto parts = steady_parts(along_paths, phases, min_frames);
+  if (parts.empty()) return;
+  const auto rows = set_metrics(parts, options);
+  for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
+    if (detail::is_footstep_row(rows[r].key))
+      result.rows.push_back({"paths.steady." + rows[r].key, rows[r].label + " (drawn paths, at speed)", rows[r].value,
                              real_rows[r].value});
 }
 
@@ -87,6 +102,7 @@ class PathsProtocol : public Protocol {
       result.rows.push_back({"paths." + rows[r].key, rows[r].label + " (drawn paths)", rows[r].value, real_rows[r].value});
     for (const SyntheticPath& path : synthetic_paths()) per_path_rows(path.name, along_paths, real_rows, ctx.options().metrics, result);
     phase_rows(along_paths, phases, ctx, result);
+    steady_rows(along_paths, phases, real_rows, ctx.options().metrics, result);
     ctx.report("paths", 1, 1);
   }
 };
