@@ -55,12 +55,9 @@ void run_prepare(PrepareArgs& a) {
   std::printf("%s", data::dataset_summary(data::Dataset::open(o.output_dir)).c_str());
 }
 
-}  // namespace
 
-void add_data_commands(CLI::App& app, Action* action) {
-  CLI::App* data_cmd = app.add_subcommand("data", "Prepare and inspect training datasets");
-  data_cmd->require_subcommand(1);
-
+// `data prepare`: every PrepareOptions field as a flag.
+void add_prepare_command(CLI::App* data_cmd, Action* action) {
   auto a = std::make_shared<PrepareArgs>();
   data::PrepareOptions& o = a->options;
   o.threads = default_threads();
@@ -124,7 +121,10 @@ void add_data_commands(CLI::App& app, Action* action) {
   prep->add_option("--threads", o.threads, "parsing threads (default: all cores)");
   prep->add_flag("--overwrite", o.overwrite, "replace an existing dataset in --out");
   prep->callback([action, a] { *action = [a] { run_prepare(*a); }; });
+}
 
+// `data info` and `data synth`.
+void add_info_and_synth_commands(CLI::App* data_cmd, Action* action) {
   auto dir = std::make_shared<std::string>();
   CLI::App* info = data_cmd->add_subcommand("info", "Print a dataset's size, feature dimensions and labels");
   info->add_option("dataset", *dir, "dataset directory")->required();
@@ -152,6 +152,15 @@ void add_data_commands(CLI::App& app, Action* action) {
       std::fprintf(stderr, "wrote synthetic takes to %s\n", sy->out.c_str());
     };
   });
+}
+
+}  // namespace
+
+void add_data_commands(CLI::App& app, Action* action) {
+  CLI::App* data_cmd = app.add_subcommand("data", "Prepare and inspect training datasets");
+  data_cmd->require_subcommand(1);
+  add_prepare_command(data_cmd, action);
+  add_info_and_synth_commands(data_cmd, action);
 }
 
 }  // namespace mosyn::cli
