@@ -586,11 +586,10 @@ std::string dataset_summary(const Dataset& dataset) {
       std::snprintf(factor, sizeof(factor), "%g", info.augment_retime[i]);
       out << (i ? ", x" : "") << factor;
     }
-    if (info.augment_retime_min_speed_mps > 0) out << " (clips from " << format_speed(info.augment_retime_min_speed_mps);
-    if (info.augment_retime_max_speed_mps > 0)
-      out << (info.augment_retime_min_speed_mps > 0 ? " to " : " (clips up to ")
-          << format_speed(info.augment_retime_max_speed_mps);
-    if (info.augment_retime_min_speed_mps > 0 || info.augment_retime_max_speed_mps > 0) out << ")";
+    const double lo = info.augment_retime_min_speed_mps, hi = info.augment_retime_max_speed_mps;
+    if (lo > 0 || hi > 0)
+      out << " (clips " << (lo > 0 ? "from " + format_speed(lo) : std::string()) << (lo > 0 && hi > 0 ? " " : "")
+          << (hi > 0 ? "up to " + format_speed(hi) : std::string()) << ")";
   }
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";

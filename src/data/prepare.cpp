@@ -348,16 +348,6 @@ std::vector<bool> borrowed_split(const std::string& dir, const std::vector<Item>
   return is_val;
 }
 
-// Which augmented copies of each clip a dataset holds (PrepareOptions::mirror, ::reverse,
-// ::retime_factors).
-struct Augmentation {
-  bool mirror = false;
-  bool reverse = false;
-  std::vector<double> retime;
-  double retime_min_speed_mps = 0;  // clips slower than this get no retimed copies
-  double retime_max_speed_mps = 0;  // nor clips faster than this, when > 0
-};
-
 // Mean horizontal speed of the root over a motion, m/s (0 for fewer than 2 frames).
 double mean_root_speed_mps(const Skeleton& skeleton, const Motion& motion, int root_joint) {
   if (motion.num_frames < 2) return 0;
@@ -370,10 +360,19 @@ double mean_root_speed_mps(const Skeleton& skeleton, const Motion& motion, int r
   return distance * skeleton.meters_per_unit * motion.fps / (motion.num_frames - 1);
 }
 
-// The feature records of one file's clip cut to keep_frames: the original, then its augmented
-// copies (mirrored with mirrored labels, reversed, then each of those retimed) next to it.
-// Errors name the file.
-std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const DatasetInfo& info, const MirrorPlan& plan,
+// Whether a clip gets the dataset's retimed copies: its mean root speed lies in the band of
+// DatasetInfo::augment_retime_min/max_speed_mps (0: no bound).
+bool retime_band_holds(const DatasetInfo& info, const Clip& clip) {
+  const double lo = info.augment_retime_min_speed_mps, hi = info.augment_retime_max_speed_mps;
+  if (lo <= 0 && hi <= 0) return true;
+  const double speed_mps = mean_root_speed_mps(clip.skeleton, clip.motion, info.layout.root_joint);
+  return speed_mps >= lo && (hi <= 0 || speed_mps <= hi);
+}
+
+// The feature records of one file's clip cut to keep_frames: the original, then the augmented
+// copies info.augment_* asks for (mirrored with mirrored labels, reversed, then each of those
+// retimed) next to it. Errors name the file.
+std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const MirrorPlan& plan,
                                                  const Item& item, Clip clip, int keep_frames) {
   if (keep_frames < clip.motion.num_frames) clip.motion = slice_frames(clip.motion, 0, keep_frames);
   auto mirrored_id = [](int id, const std::vector<std::string>& vocabulary) {
@@ -400,18 +399,14 @@ std::vector<ClipRecord> encode_with_augmentation(const Augmentation& o, const Da
       bool mirrored, reversed;
     };
     std::vector<Copy> copies = {{clip.motion, false, false}};
-    if (o.mirror) copies.push_back({mirror(clip.skeleton, clip.motion, plan), true, false});
-    if (o.reverse) {
+    if (info.augment_mirror) copies.push_back({mirror(clip.skeleton, clip.motion, plan), true, false});
+    if (info.augment_reverse) {
       const size_t base = copies.size();
       for (size_t k = 0; k < base; ++k) copies.push_back({reverse_frames(copies[k].motion), copies[k].mirrored, true});
     }
     for (const Copy& c : copies) add(c.motion, c.mirrored, c.reversed, false);
-    bool in_band = true;
-    if (o.retime_min_speed_mps > 0 || o.retime_max_speed_mps > 0) {
-      const double speed_mps = mean_root_speed_mps(clip.skeleton, clip.motion, info.layout.root_joint);
-      in_band = speed_mps >= o.retime_min_speed_mps && (o.retime_max_speed_mps <= 0 || speed_mps <= o.retime_max_speed_mps);
-    }
-    for (double factor : in_band ? o.retime : std::vector<double>{})
+    const std::vector<double> factors = retime_band_holds(info, clip) ? info.augment_retime : std::vector<double>{};
+    for (double factor : factors)
       for (const Copy& c : copies) {
         const Motion retimed = retime(c.motion, factor);
         if (retimed.num_frames >= 2) add(retimed, c.mirrored, c.reversed, true);
@@ -484,13 +479,11 @@ DatasetInfo prepare_dataset(const PrepareOptions& o, const PrepareProgressCallba
 
   // 5. Features, with augmentation copies next to their original.
   const MirrorPlan plan = plan_mirror(skeleton);
-  const Augmentation augmentation{o.mirror, o.reverse, o.retime_factors, o.retime_min_speed_mps,
-                                    o.retime_max_speed_mps};
   std::vector<std::vector<ClipRecord>> records(static_cast<size_t>(n));
   done = 0;
   parallel_for(n, o.threads, [&](int i) {
     if (keep_frames[i] == 0) return;
-    records[i] = encode_with_augmentation(augmentation, info, plan, items[i], std::move(clips[i]), keep_frames[i]);
+    records[i] = encode_with_augmentation(info, plan, items[i], std::move(clips[i]), keep_frames[i]);
     report("encode", items[i].source);
   });
 

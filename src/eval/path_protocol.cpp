@@ -64,13 +64,7 @@ std::vector<MotionPositions> steady_parts(const std::vector<MotionPositions>& al
       }
       int end = t;
       while (end < frames && phases[m][end] == PathPhase::kSteady) ++end;
-      if (end - t >= min_frames) {
-        MotionPositions part = motion;
-        part.num_frames = end - t;
-        part.positions_m.assign(motion.positions_m.begin() + static_cast<std::ptrdiff_t>(t) * motion.num_joints,
-                                motion.positions_m.begin() + static_cast<std::ptrdiff_t>(end) * motion.num_joints);
-        parts.push_back(std::move(part));
-      }
+      if (end - t >= min_frames) parts.push_back(detail::slice(motion, t, end));
       t = end;
     }
   }

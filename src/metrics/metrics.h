@@ -22,6 +22,7 @@
 namespace mosyn::eval {
 
 // World joint positions of one motion, in metres.
+// (eval's detail::slice copies every field but positions_m by name: a new field goes there too.)
 struct MotionPositions {
   std::string name;                     // e.g. the file it came from (for messages)
   double fps = 30.0;

@@ -48,7 +48,14 @@ Eigen::MatrixXd root_relative(const Eigen::MatrixXd& sequence) {
 }
 
 MotionPositions slice(const MotionPositions& m, int from, int to) {
-  MotionPositions out = m;
+  MotionPositions out;  // the skeleton fields copied, the frames only once: [from, to)
+  out.name = m.name;
+  out.fps = m.fps;
+  out.num_joints = m.num_joints;
+  out.up_axis = m.up_axis;
+  out.joint_names = m.joint_names;
+  out.parents = m.parents;
+  out.bone_lengths_m = m.bone_lengths_m;
   out.num_frames = to - from;
   out.positions_m.assign(m.positions_m.begin() + static_cast<size_t>(from) * m.num_joints,
                          m.positions_m.begin() + static_cast<size_t>(to) * m.num_joints);

@@ -9,33 +9,35 @@ namespace mosyn::eval {
 
 namespace {
 
-// The footstep and skating rows of one path's samples (named after it by sample_synthetic_paths),
-// so that a pooled figure shows which path it comes from (`paths.straight-1.8.footsteps.v_tol95_cmps`).
+// The footstep and skating rows of the set metrics of motions, keyed `paths.<part>.<key>` and
+// labelled "<label> (<what>)", beside the real clips' rows.
+void footstep_rows(const std::string& part, const std::string& what, const std::vector<MotionPositions>& motions,
+                   const std::vector<MetricValue>& real_rows, const SetMetricsOptions& options, EvalResult& result) {
+  if (motions.empty()) return;
+  const auto rows = set_metrics(motions, options);
+  for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
+    if (detail::is_footstep_row(rows[r].key))
+      result.rows.push_back({"paths." + part + "." + rows[r].key, rows[r].label + " (" + what + ")", rows[r].value,
+                             real_rows[r].value});
+}
+
+// One path's samples (named after it by sample_synthetic_paths), so that a pooled figure shows
+// which path it comes from (`paths.straight-1.8.footsteps.v_tol95_cmps`).
 void per_path_rows(const std::string& name, const std::vector<MotionPositions>& along_paths,
                    const std::vector<MetricValue>& real_rows, const SetMetricsOptions& options, EvalResult& result) {
   std::vector<MotionPositions> mine;
   for (const auto& m : along_paths)
     if (m.name == name) mine.push_back(m);
-  if (mine.empty()) return;
-  const auto rows = set_metrics(mine, options);
-  for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
-    if (detail::is_footstep_row(rows[r].key))
-      result.rows.push_back({"paths." + name + "." + rows[r].key, rows[r].label + " (path " + name + ")", rows[r].value,
-                             real_rows[r].value});
+  footstep_rows(name, "path " + name, mine, real_rows, options, result);
 }
 
-// Footstep and skating rows of the steady parts (`paths.steady.footsteps.*`), beside the real clips.
+// The steady parts of the paths, each run at speed of at least one second (`paths.steady.*`).
 void steady_rows(const std::vector<MotionPositions>& along_paths, const std::vector<std::vector<PathPhase>>& phases,
                  const std::vector<MetricValue>& real_rows, const SetMetricsOptions& options, EvalResult& result) {
   if (along_paths.empty()) return;
-  const int min_frames = static_cast<int>(std::lround(along_paths[0].fps));  // one second
-  const auto parts = steady_parts(along_paths, phases, min_frames);
-  if (parts.empty()) return;
-  const auto rows = set_metrics(parts, options);
-  for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
-    if (detail::is_footstep_row(rows[r].key))
-      result.rows.push_back({"paths.steady." + rows[r].key, rows[r].label + " (drawn paths, at speed)", rows[r].value,
-                             real_rows[r].value});
+  const int one_second = static_cast<int>(std::lround(along_paths[0].fps));
+  footstep_rows("steady", "drawn paths, at speed", steady_parts(along_paths, phases, one_second), real_rows, options,
+                result);
 }
 
 double median_of(std::vector<double> v) {
