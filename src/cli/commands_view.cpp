@@ -48,6 +48,7 @@ struct MetricsArgs {
   bool toes = false;
   bool skate_any_foot = false;
   double min_step_s = 0.1;
+  double contact_tol_cmps = 15.0;
   eval::FootSkatingOptions skating;
 };
 
@@ -64,6 +65,7 @@ eval::SetMetricsOptions set_metrics_options(const MetricsArgs& a) {
   if (!(a.v_tol_step_cmps > 0) || !(a.v_tol_max_cmps >= a.v_tol_step_cmps))
     throw UsageError("--v-tol-step and --v-tol-max must be positive, step <= max");
   if (!(a.min_step_s >= 0)) throw UsageError("--min-step must not be negative");
+  if (!(a.contact_tol_cmps > 0)) throw UsageError("--contact-tol must be positive");
   if (!(a.skating.height_threshold_m >= 0) || !(a.skating.speed_threshold_mps >= 0))
     throw UsageError("skating thresholds must not be negative");
   const std::vector<std::string> feet = split_commas(a.foot_joints);
@@ -76,6 +78,7 @@ eval::SetMetricsOptions set_metrics_options(const MetricsArgs& a) {
   o.skating = a.skating;
   o.skating.both_feet = !a.skate_any_foot;
   o.footsteps.min_step_duration_s = a.min_step_s;
+  o.footsteps.fixed_tol_mps = a.contact_tol_cmps / 100;
   o.foot_joints = feet;
   return o;
 }
@@ -152,6 +155,7 @@ nlohmann::json metrics_json(const MetricsArgs& a, const eval::SetMetricsOptions&
                   {"skate_speed_mps", a.skating.speed_threshold_mps},
                   {"skate_both_feet", !a.skate_any_foot},
                   {"min_step_s", a.min_step_s},
+                  {"contact_tol_cmps", a.contact_tol_cmps},
                   {"foot_joints", o.foot_joints}};
   return j;
 }
@@ -323,6 +327,8 @@ void add_metrics_command(CLI::App& app, Action* action) {
   cmd->add_option("--v-tol-step", a->v_tol_step_cmps, "footstep tolerance increment, cm/s (default 1)");
   cmd->add_option("--v-tol-max", a->v_tol_max_cmps, "largest footstep tolerance, cm/s (default 100)");
   cmd->add_option("--min-step", a->min_step_s, "shortest footstep counted, s (default 0.1)");
+  cmd->add_option("--contact-tol", a->contact_tol_cmps,
+                  "one tolerance for every set's contact rate and length, cm/s (default 15)");
   cmd->add_flag("--toes", a->toes, "footsteps from toe joints instead of heels (quadrupeds)");
   cmd->add_option("--skate-height", a->skating.height_threshold_m,
                   "foot skating: height above the foot's lowest point counted as ground contact, m (default 0.05)");

@@ -166,6 +166,7 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
   if (motions.size() != feet.size()) throw Error("analyse_footsteps: one FootJoints per motion needed");
   if (!(options.v_tol_step_mps > 0) || !(options.v_tol_max_mps >= options.v_tol_step_mps))
     throw Error("analyse_footsteps: tolerance step and maximum must be positive, step <= maximum");
+  if (!(options.fixed_tol_mps > 0)) throw Error("analyse_footsteps: the fixed tolerance must be positive");
   std::vector<std::pair<std::vector<double>, double>> tracks;  // speed, fps
   for (size_t i = 0; i < motions.size(); ++i) {
     const FootJoints& f = feet[i];
@@ -184,6 +185,15 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
     a.f_est.push_back(count);
     a.max_steps = std::max(a.max_steps, count);
   }
+  std::vector<double> fixed_durations;
+  double track_s = 0;
+  for (const auto& [speed, fps] : tracks) {
+    track_s += speed.size() / fps;
+    for (double d : footstep_durations_s(speed, fps, options.fixed_tol_mps))
+      if (d >= options.min_step_duration_s - 1e-9) fixed_durations.push_back(d);
+  }
+  a.contacts_per_foot_s = track_s > 0 ? fixed_durations.size() / track_s : 0.0;
+  a.contact_mean_at_fixed_tol_s = mean_of(fixed_durations);
   a.step_duration_mean_s = a.step_duration_std_s = kNaN;
   if (a.max_steps == 0) return a;
   for (size_t k = 0; k < a.f_est.size(); ++k) {

@@ -88,6 +88,11 @@ struct FootstepOptions {
   // Shortest run counted as a footstep. Mocap jitter splits a contact into brief still runs at low
   // tolerances; without a minimum those fragments inflate f_est beyond the true plateau.
   double min_step_duration_s = 0.1;
+  // One tolerance for every set, for the contact rate and length below. v_tol95 adapts to each set,
+  // so a model whose feet stay slow for long around each contact (few, long steps) can match real
+  // walks there; at a fixed tolerance its contacts come out longer and rarer. 15 cm/s: above the
+  // planted heel's jitter on Bandai-Namco walks, below its swing.
+  double fixed_tol_mps = 0.15;
 };
 
 struct FootstepAnalysis {
@@ -98,12 +103,15 @@ struct FootstepAnalysis {
   int steps_at_v_tol95 = 0;        // f_est at v_tol95
   double step_duration_mean_s = 0;  // over the footsteps at v_tol95 (NaN when none)
   double step_duration_std_s = 0;   // population std of the same (NaN when none)
+  // At FootstepOptions::fixed_tol_mps (runs shorter than min_step_duration_s not counted):
+  double contacts_per_foot_s = 0;         // footsteps per second per foot (cadence of one foot)
+  double contact_mean_at_fixed_tol_s = 0; // their mean duration (NaN when none)
 };
 
 // Footstep analysis over a set of motions (their footsteps pooled, all tolerances; runs shorter than
-// min_step_duration_s not counted), on the heels (or
-// toes with use_toes) of feet[i] for motions[i]. Throws when the sizes differ or options are not
-// positive.
+// min_step_duration_s not counted), on the heels (or toes with use_toes) of feet[i] for motions[i];
+// the contact rate divides the footsteps at fixed_tol_mps by the summed duration of every foot's
+// speed track. Throws when the sizes differ or options are not positive.
 FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, const std::vector<FootJoints>& feet,
                                    const FootstepOptions& options = {});
 

@@ -29,6 +29,11 @@ std::vector<MetricValue> set_metrics(const std::vector<MotionPositions>& motions
   rows.push_back({"footsteps.steps_at_v_tol95", "steps at v_tol95", static_cast<double>(steps.steps_at_v_tol95)});
   rows.push_back({"footsteps.duration_mean_s", "step duration mean (s)", steps.step_duration_mean_s});
   rows.push_back({"footsteps.duration_std_s", "step duration std (s)", steps.step_duration_std_s});
+  const std::string fixed_cmps = std::to_string(static_cast<int>(std::lround(options.footsteps.fixed_tol_mps * 100)));
+  rows.push_back({"footsteps.fixed_tol.contacts_per_foot_s", "contacts per foot per s at " + fixed_cmps + " cm/s",
+                  steps.contacts_per_foot_s});
+  rows.push_back({"footsteps.fixed_tol.contact_mean_s", "contact mean (s) at " + fixed_cmps + " cm/s",
+                  steps.contact_mean_at_fixed_tol_s});
 
   double skating = 0, bone_sq = 0;
   long bone_count = 0;

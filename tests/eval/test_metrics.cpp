@@ -94,6 +94,17 @@ TEST(FootstepTest, KnownStepTimesAndTolerance) {
   EXPECT_EQ(a.steps_at_v_tol95, 3);
   EXPECT_NEAR(a.step_duration_mean_s, 0.6, 1e-12);          // 0.5, 0.5, 0.8
   EXPECT_NEAR(a.step_duration_std_s, std::sqrt(0.02), 1e-12);
+  // At the fixed 15 cm/s the sliding contact (20.5 cm/s) is no contact: two of 0.5 s over two feet'
+  // tracks of 1.4 s each.
+  EXPECT_NEAR(a.contacts_per_foot_s, 2 / 2.8, 1e-12);
+  EXPECT_NEAR(a.contact_mean_at_fixed_tol_s, 0.5, 1e-12);
+  FootstepOptions loose;
+  loose.fixed_tol_mps = 0.3;
+  const FootstepAnalysis c = analyse_footsteps({m}, {find_foot_joints(m)}, loose);
+  EXPECT_NEAR(c.contacts_per_foot_s, 3 / 2.8, 1e-12);
+  EXPECT_NEAR(c.contact_mean_at_fixed_tol_s, 0.6, 1e-12);
+  loose.fixed_tol_mps = 0;
+  EXPECT_THROW(analyse_footsteps({m}, {find_foot_joints(m)}, loose), Error);
   // Runs shorter than the minimum (here 0.6 s) are not steps: only the 0.8 s contact remains.
   FootstepOptions o;
   o.min_step_duration_s = 0.6;
