@@ -161,13 +161,26 @@ std::vector<double> footstep_durations_s(const std::vector<double>& speed_mps, d
   return out;
 }
 
+namespace {
+using SpeedTrack = std::pair<std::vector<double>, double>;  // horizontal speed (m/s), fps
+
+// Durations (s) of the footsteps of every track at v_tol_mps, runs shorter than min_s left out.
+std::vector<double> pooled_footsteps_s(const std::vector<SpeedTrack>& tracks, double v_tol_mps, double min_s) {
+  std::vector<double> out;
+  for (const auto& [speed, fps] : tracks)
+    for (double d : footstep_durations_s(speed, fps, v_tol_mps))
+      if (d >= min_s - 1e-9) out.push_back(d);
+  return out;
+}
+}  // namespace
+
 FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, const std::vector<FootJoints>& feet,
                                    const FootstepOptions& options) {
   if (motions.size() != feet.size()) throw Error("analyse_footsteps: one FootJoints per motion needed");
   if (!(options.v_tol_step_mps > 0) || !(options.v_tol_max_mps >= options.v_tol_step_mps))
     throw Error("analyse_footsteps: tolerance step and maximum must be positive, step <= maximum");
   if (!(options.fixed_tol_mps > 0)) throw Error("analyse_footsteps: the fixed tolerance must be positive");
-  std::vector<std::pair<std::vector<double>, double>> tracks;  // speed, fps
+  std::vector<SpeedTrack> tracks;
   for (size_t i = 0; i < motions.size(); ++i) {
     const FootJoints& f = feet[i];
     const bool toes = options.use_toes && f.left_toe >= 0 && f.right_toe >= 0;
@@ -178,20 +191,15 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
   const int k_count = static_cast<int>(std::floor(options.v_tol_max_mps / options.v_tol_step_mps + 1e-9));
   for (int k = 1; k <= k_count; ++k) {
     const double v = k * options.v_tol_step_mps;
-    int count = 0;
-    for (const auto& [speed, fps] : tracks)
-      for (double d : footstep_durations_s(speed, fps, v)) count += d >= options.min_step_duration_s - 1e-9;
+    const int count = static_cast<int>(pooled_footsteps_s(tracks, v, options.min_step_duration_s).size());
     a.v_tol_mps.push_back(v);
     a.f_est.push_back(count);
     a.max_steps = std::max(a.max_steps, count);
   }
-  std::vector<double> fixed_durations;
+  const std::vector<double> fixed_durations =
+      pooled_footsteps_s(tracks, options.fixed_tol_mps, options.min_step_duration_s);
   double track_s = 0;
-  for (const auto& [speed, fps] : tracks) {
-    track_s += speed.size() / fps;
-    for (double d : footstep_durations_s(speed, fps, options.fixed_tol_mps))
-      if (d >= options.min_step_duration_s - 1e-9) fixed_durations.push_back(d);
-  }
+  for (const auto& [speed, fps] : tracks) track_s += speed.size() / fps;
   a.contacts_per_foot_s = track_s > 0 ? fixed_durations.size() / track_s : 0.0;
   a.contact_mean_at_fixed_tol_s = mean_of(fixed_durations);
   a.step_duration_mean_s = a.step_duration_std_s = kNaN;
@@ -203,10 +211,7 @@ FootstepAnalysis analyse_footsteps(const std::vector<MotionPositions>& motions, 
       break;
     }
   }
-  std::vector<double> durations;
-  for (const auto& [speed, fps] : tracks)
-    for (double d : footstep_durations_s(speed, fps, a.v_tol95_mps))
-      if (d >= options.min_step_duration_s - 1e-9) durations.push_back(d);
+  const std::vector<double> durations = pooled_footsteps_s(tracks, a.v_tol95_mps, options.min_step_duration_s);
   a.step_duration_mean_s = mean_of(durations);
   a.step_duration_std_s = population_std(durations);
   return a;
