@@ -8,6 +8,7 @@
 #include <torch/types.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nn/context.h"
@@ -33,9 +34,20 @@ class PlantedHeelTerm {
   torch::Tensor mean_planted_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
                                    const torch::Tensor& valid = {}) const;
 
+  // Mean absolute difference (m/s) between the made and the real heels' horizontal speeds from
+  // frame t-1 to t, over every (heel, step) pair (valid as above). Where the real heel is planted
+  // it is the made heel's glide, as mean_planted_speed; where the real heel swings it also charges
+  // a made heel that lingers slow around the contact. A scalar, differentiable in made.
+  torch::Tensor mean_speed_error(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
+                                 const torch::Tensor& valid = {}) const;
+
   const std::vector<int>& heels() const { return heels_; }
 
  private:
+  // Horizontal speeds (m/s) of the made and real heels over the steps [B, T-1, 2].
+  std::pair<torch::Tensor, torch::Tensor> heel_speeds_mps(const torch::Tensor& made, const torch::Tensor& real,
+                                                          const torch::Tensor& control) const;
+
   std::vector<int> heels_;
   double fps_ = 30.0;
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]

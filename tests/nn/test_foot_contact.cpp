@@ -40,3 +40,36 @@ TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
   EXPECT_THROW(PlantedHeelTerm(nn::testing::small_context(), "test"), Error);
   EXPECT_THROW(PlantedHeelTerm().mean_planted_speed(made, real.pose, real.control), Error);
 }
+
+// The heel-speed error (mean_speed_error) by hand: |made - real| speed over every (heel, step),
+// so, unlike the planted term, a made heel that stays put while the data's heel moves costs as
+// much as the reverse.
+TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch still = nn::testing::standing_batch(s, ctx, frames);
+  const PlantedHeelTerm term(ctx, "test");
+  const int64_t left_x = 3 * s.find("Foot_L");
+  auto moving = still.pose.clone();  // the left heel at 0.3 m/s over the steps into frames 10..19
+  for (int t = frames / 2; t < frames; ++t) moving[0][t][left_x] += 0.01 * (t - frames / 2 + 1);
+  const double expected = 10 * 0.3 / (19 * 2);
+  EXPECT_NEAR(term.mean_speed_error(moving, still.pose, still.control).item<double>(), expected, 1e-4);
+  // The made heel lingers where the data's swings: the planted term sees nothing, this does.
+  EXPECT_NEAR(term.mean_speed_error(still.pose, moving, still.control).item<double>(), expected, 1e-4);
+  EXPECT_NEAR(term.mean_planted_speed(still.pose, moving, still.control).item<double>(), 0.0, 1e-4);
+  EXPECT_NEAR(term.mean_speed_error(moving, moving, still.control).item<double>(), 0.0, 1e-4);
+  // The valid mask: only the steps into the first half count, where both stand.
+  auto first_half = torch::zeros({1, frames - 1});
+  first_half.narrow(1, 0, frames / 2 - 1).fill_(1.0);
+  EXPECT_NEAR(term.mean_speed_error(still.pose, moving, still.control, first_half).item<double>(), 0.0, 1e-4);
+  // A heel at half the data's speed: half the error, and the gradient speeds it up.
+  auto slow = still.pose.clone();
+  for (int t = frames / 2; t < frames; ++t) slow[0][t][left_x] += 0.005 * (t - frames / 2 + 1);
+  EXPECT_NEAR(term.mean_speed_error(slow, moving, still.control).item<double>(), expected / 2, 1e-4);
+  auto made_var = slow.clone().requires_grad_(true);
+  term.mean_speed_error(made_var, moving, still.control).backward();
+  EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
+  EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);  // further along: faster
+}
+

@@ -491,6 +491,17 @@ TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
   EXPECT_GT(planted, 0.0);  // an untrained model's heels do not stay put
   EXPECT_NEAR(train_terms.terms.at("planted_heel_mps").item<double>(), planted, 1e-6);
   EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + 2.0 * planted, 1e-5);
+  EXPECT_EQ(eval_terms.terms.count("heel_speed_error_mps"), 0u);  // off unless asked
+  // The heel-speed term the same way, added beside the contact term in training only.
+  cfg["heel_speed_weight"] = 0.5;
+  m = create_model("rvae", cfg, ctx);
+  const LossTerms eval_both = loss_in(false), train_both = loss_in(true);
+  const double error = eval_both.terms.at("heel_speed_error_mps").item<double>();
+  EXPECT_GT(error, 0.0);
+  EXPECT_NEAR(train_both.loss().item<double>(),
+              eval_both.loss().item<double>() + 2.0 * eval_both.terms.at("planted_heel_mps").item<double>() + 0.5 * error,
+              1e-5);
+  cfg.erase("heel_speed_weight");
   // The data's own heels, through the same speed: some planted (under 0.15 m/s).
   const auto heels = std::vector<int>{s.find("Foot_L"), s.find("Foot_R")};
   const auto speed = joint_ground_speed_mps(batch.pose, batch.control, heels, 30.0);

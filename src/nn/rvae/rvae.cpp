@@ -69,6 +69,9 @@ const OptionFields<RvaeOptions>& rvae_fields() {
           .field("foot_contact_weight", &O::foot_contact_weight,
                  "weight of the planted-heel speed term in training (positions form)", at_least(0.0))
           .written_if([](const O& o) { return o.foot_contact_weight > 0; })
+          .field("heel_speed_weight", &O::heel_speed_weight,
+                 "weight of the heel-speed matching term in training (positions form)", at_least(0.0))
+          .written_if([](const O& o) { return o.heel_speed_weight > 0; })
           .rule([](const O& o) {
             return o.latent_prior == "conditional" && o.free_running > 0
                        ? "a conditional latent prior draws every step's latent; free_running must be 0"
@@ -154,7 +157,7 @@ RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     in = out;
   }
   kl_now_ = options.kl_weight;
-  if (options.foot_contact_weight > 0) planted_heels_ = PlantedHeelTerm(context, "rvae");
+  if (options.foot_contact_weight > 0 || options.heel_speed_weight > 0) planted_heels_ = PlantedHeelTerm(context, "rvae");
   if (options.latent_prior == "conditional") {
     prior_hidden = register_module("prior_hidden", torch::nn::Linear(z + options.control_channels.back(), options.prior_hidden));
     prior_out = register_module("prior_out", torch::nn::Linear(options.prior_hidden, 2 * z));
@@ -353,6 +356,11 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     const auto planted = planted_heels_.mean_planted_speed(x_hat, pose, control);
     if (is_training()) total = total + options_.foot_contact_weight * planted;
     out.terms["planted_heel_mps"] = planted.detach();
+  }
+  if (options_.heel_speed_weight > 0 && t >= 2) {
+    const auto error = planted_heels_.mean_speed_error(x_hat, pose, control);
+    if (is_training()) total = total + options_.heel_speed_weight * error;
+    out.terms["heel_speed_error_mps"] = error.detach();
   }
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();

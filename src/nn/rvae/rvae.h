@@ -73,6 +73,12 @@ struct RvaeOptions {
   // reconstructed heels over the frames where the data's heel is planted (slower than 0.15 m/s),
   // added to the training loss. Positions form only. 0: off (the paper's loss).
   double foot_contact_weight = 0.0;
+  // Weight of a heel-speed term (beyond the paper): the mean absolute difference (m/s) between
+  // the reconstructed and the data's heel speeds over the ground on every frame
+  // (PlantedHeelTerm::mean_speed_error), added to the training loss. Where foot_contact_weight
+  // only stops planted heels gliding, this also charges heels that linger slow around a contact
+  // while the data's already swing. Positions form only. 0: off.
+  double heel_speed_weight = 0.0;
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
