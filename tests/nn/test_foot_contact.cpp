@@ -72,4 +72,3 @@ TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
   EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
   EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);  // further along: faster
 }
-
