@@ -93,10 +93,15 @@ TEST_F(ViewBrowserTest, AFollowedCharacterCoversAtLeastFivePercentOfTheFrame) {
   for (int i = 0; i < 11; ++i) motions.push_back(walk(i, motion_color(i == 0 ? 0 : 1 + (i - 1) % 7)));
   const std::string page = (b_.dir / "eleven.html").string();
   write_viewer_page(page, motions, "browser test");
-  int followed = count_body_pixels(screenshot(b_, page, 1280, 800, "eleven"), motion_color(0));
-  // On a starved machine Chromium may shoot before the first frame is drawn: one more try.
-  if (followed < 0.05 * 1280 * 800) followed = count_body_pixels(screenshot(b_, page, 1280, 800, "eleven-again"), motion_color(0));
-  EXPECT_GE(followed, 0.05 * 1280 * 800) << (b_.dir / "eleven-again.png").string();
+  // On a starved machine (ctest runs the browser tests side by side) Chromium may shoot before the
+  // camera has framed the followed character: up to two more tries.
+  int followed = 0;
+  std::string shot;
+  for (int attempt = 0; attempt < 3 && followed < 0.05 * 1280 * 800; ++attempt) {
+    shot = "eleven-" + std::to_string(attempt);
+    followed = count_body_pixels(screenshot(b_, page, 1280, 800, shot), motion_color(0));
+  }
+  EXPECT_GE(followed, 0.05 * 1280 * 800) << (b_.dir / (shot + ".png")).string();
   std::printf("followed character: %.1f%% of the 1280x800 frame\n", 100.0 * followed / (1280 * 800));
 }
 
