@@ -409,6 +409,34 @@ TEST_F(EvaluateTest, LongHorizonRowsArePerWindowAndFinite) {
   EXPECT_THROW(result_->row("long_horizon.frozen_fraction"), Error);
 }
 
+// The within-2x rows of a prefix-generation result: the real column is how often the real clips
+// themselves pass (a fraction), and each overall fraction, model and real, is the sample-weighted
+// mean of its per-content rows, so it lies between the smallest and the largest of them.
+void expect_within_2x_rows(const eval::EvalResult& r) {
+  for (const std::string key : {"prefix_generation.body_speed_within_2x", "prefix_generation.root_speed_within_2x"}) {
+    SCOPED_TRACE(key);
+    const eval::EvalRow& overall = r.row(key);
+    EXPECT_GE(overall.real, 0.0);
+    EXPECT_LE(overall.real, 1.0);
+    double lowest[2] = {2, 2}, highest[2] = {-1, -1};
+    for (const auto& row : r.rows) {
+      if (row.key.rfind(key + ".", 0) != 0) continue;
+      EXPECT_THAT(row.label, HasSubstr("prefixes ("));
+      const double v[2] = {row.model, row.real};
+      for (int k = 0; k < 2; ++k) {
+        lowest[k] = std::min(lowest[k], v[k]);
+        highest[k] = std::max(highest[k], v[k]);
+      }
+    }
+    ASSERT_LE(highest[0], 1.0);
+    EXPECT_GE(lowest[0], 0.0);
+    EXPECT_LE(lowest[0], overall.model + 1e-12);
+    EXPECT_GE(highest[0], overall.model - 1e-12);
+    EXPECT_LE(lowest[1], overall.real + 1e-12);
+    EXPECT_GE(highest[1], overall.real - 1e-12);
+  }
+}
+
 // Generation from held-out prefixes (DFN, Chen et al. 2020): stability rows against the real clips,
 // Fig. 9's curves (zero spread over the shared prefix, some after it, the training data's level
 // beside them), transitions by the classifier, and the curves through the JSON file.
@@ -452,19 +480,7 @@ TEST_F(EvaluateTest, PrefixGenerationRowsAndFig9Curves) {
     EXPECT_LE(r.row(key).model, 1.0);
   }
   EXPECT_GE(r.row("prefix_generation.contents_per_sample").model, 1.0);
-  // The same fraction per prefix content: the overall one is their sample-weighted mean, so it lies
-  // between the smallest and the largest.
-  double lowest = 2, highest = -1;
-  for (const auto& row : r.rows)
-    if (row.key.rfind("prefix_generation.root_speed_within_2x.", 0) == 0) {
-      EXPECT_THAT(row.label, HasSubstr("prefixes ("));
-      lowest = std::min(lowest, row.model);
-      highest = std::max(highest, row.model);
-    }
-  ASSERT_LE(highest, 1.0);
-  EXPECT_GE(lowest, 0.0);
-  EXPECT_LE(lowest, r.row("prefix_generation.root_speed_within_2x").model + 1e-12);
-  EXPECT_GE(highest, r.row("prefix_generation.root_speed_within_2x").model - 1e-12);
+  expect_within_2x_rows(r);
   // 20 + 120 frames in windows of 60: three windows, the training level as the real column.
   EXPECT_NO_THROW(r.row("prefix_generation.mean_pose_distance_m.w2"));
   EXPECT_THROW(r.row("prefix_generation.mean_pose_distance_m.w3"), Error);

@@ -48,6 +48,19 @@ double root_speed_mps(const MotionPositions& m, int from, int to) {
   return sum * m.fps / (to - from - 1.0);
 }
 
+// 1 when `speed` is within a factor of two of `real` (either way), else 0.
+double within_2x(double speed, double real) { return speed >= 0.5 * real && speed <= 2.0 * real ? 1.0 : 0.0; }
+
+// Fraction of `speeds` within a factor of two of their own mean: how often a real clip itself would
+// pass the test the samples face, the floor a standing content's scattered weight shifts set.
+double fraction_within_2x_of_mean(const std::vector<double>& speeds) {
+  const double mean = mean_finite(speeds);
+  std::vector<double> within;
+  for (double s : speeds)
+    if (std::isfinite(s)) within.push_back(within_2x(s, mean));
+  return mean_finite(within);
+}
+
 // What the real clips of one content do, each clip whole.
 struct ContentReference {
   std::vector<double> body_speed, root_speed;
@@ -153,6 +166,7 @@ int transition_frames(const EvalOptions& o, const nn::LoadedRun& cls, double fps
 struct Collected {
   std::vector<double> body_last, root_last, body_real, root_real, body_within, root_within, height_in, height,
       real_height, frozen, exploded, changes, contents;
+  std::vector<double> body_real_within, root_real_within;  // per sample: its content's real clips' own fraction
   std::vector<int> prefix_content;                   // the prefix clip's content label, per sample
   std::vector<std::vector<double>> window_distance;  // [window][prefix]
 };
@@ -177,8 +191,10 @@ void per_content_rows(const Collected& all, const std::vector<std::string>& cont
     };
     row("body_speed_mps.last", "body speed, last window (m/s)", mean_of(all.body_last), mean_of(all.body_real));
     row("root_speed_mps.last", "root speed, last window (m/s)", mean_of(all.root_last), mean_of(all.root_real));
-    row("body_speed_within_2x", "fraction with body speed within 2x of real", mean_of(all.body_within), kNaN);
-    row("root_speed_within_2x", "fraction with root speed within 2x of real", mean_of(all.root_within), kNaN);
+    row("body_speed_within_2x", "fraction with body speed within 2x of real", mean_of(all.body_within),
+        mean_of(all.body_real_within));
+    row("root_speed_within_2x", "fraction with root speed within 2x of real", mean_of(all.root_within),
+        mean_of(all.root_real_within));
   }
 }
 
@@ -221,8 +237,10 @@ void PrefixGenerationProtocol::score_prefix(EvalContext& ctx, size_t i, const st
     all.root_last.push_back(root);
     all.body_real.push_back(real_body);
     all.root_real.push_back(real_root);
-    all.body_within.push_back(body >= 0.5 * real_body && body <= 2.0 * real_body ? 1.0 : 0.0);
-    all.root_within.push_back(root >= 0.5 * real_root && root <= 2.0 * real_root ? 1.0 : 0.0);
+    all.body_within.push_back(within_2x(body, real_body));
+    all.root_within.push_back(within_2x(root, real_root));
+    all.body_real_within.push_back(fraction_within_2x_of_mean(ref.body_speed));
+    all.root_real_within.push_back(fraction_within_2x_of_mean(ref.root_speed));
     all.prefix_content.push_back(rec.content);
     bool frozen = false;
     for (int from = p; from + window <= end; from += window)
@@ -293,8 +311,10 @@ void PrefixGenerationProtocol::run(EvalContext& ctx, EvalResult& result) const {
   row("body_speed_mps.last", "body speed relative to the pelvis, last window (m/s)", mean_finite(all.body_last),
       mean_finite(all.body_real));
   row("root_speed_mps.last", "root speed, last window (m/s)", mean_finite(all.root_last), mean_finite(all.root_real));
-  row("body_speed_within_2x", "fraction of samples with body speed within 2x of real", mean_finite(all.body_within), kNaN);
-  row("root_speed_within_2x", "fraction of samples with root speed within 2x of real", mean_finite(all.root_within), kNaN);
+  row("body_speed_within_2x", "fraction of samples with body speed within 2x of real", mean_finite(all.body_within),
+      mean_finite(all.body_real_within));
+  row("root_speed_within_2x", "fraction of samples with root speed within 2x of real", mean_finite(all.root_within),
+      mean_finite(all.root_real_within));
   row("root_height_m", "root height (m)", mean_finite(all.height), mean_finite(all.real_height));
   row("root_height_in_range", "fraction of frames with root height in the real range", mean_finite(all.height_in), kNaN);
   row("frozen_fraction", "fraction of samples that freeze", mean_finite(all.frozen), kNaN);
