@@ -64,6 +64,7 @@ double fraction_within_2x_of_mean(const std::vector<double>& speeds) {
 // What the real clips of one content do, each clip whole.
 struct ContentReference {
   std::vector<double> body_speed, root_speed;
+  double body_within = kNaN, root_within = kNaN;  // fraction_within_2x_of_mean of the two above
   double height_min = std::numeric_limits<double>::infinity(), height_max = -std::numeric_limits<double>::infinity();
   double height_sum = 0;
   int height_frames = 0;
@@ -86,6 +87,10 @@ std::map<int, ContentReference> content_references(const EvalContext& ctx) {
       }
       r.extent = std::max(r.extent, detail::largest_extent_m(m));
     }
+  }
+  for (auto& [content, r] : refs) {
+    r.body_within = fraction_within_2x_of_mean(r.body_speed);
+    r.root_within = fraction_within_2x_of_mean(r.root_speed);
   }
   return refs;
 }
@@ -239,8 +244,8 @@ void PrefixGenerationProtocol::score_prefix(EvalContext& ctx, size_t i, const st
     all.root_real.push_back(real_root);
     all.body_within.push_back(within_2x(body, real_body));
     all.root_within.push_back(within_2x(root, real_root));
-    all.body_real_within.push_back(fraction_within_2x_of_mean(ref.body_speed));
-    all.root_real_within.push_back(fraction_within_2x_of_mean(ref.root_speed));
+    all.body_real_within.push_back(ref.body_within);
+    all.root_real_within.push_back(ref.root_within);
     all.prefix_content.push_back(rec.content);
     bool frozen = false;
     for (int from = p; from + window <= end; from += window)
