@@ -169,6 +169,61 @@ std::pair<torch::Tensor, torch::Tensor> scheduled_latents(DfnDynamicsImpl& dyn, 
 
 }  // namespace
 
+DfnImpl::WindowSpeeds DfnImpl::window_speeds(const torch::Tensor& control, const torch::Tensor& positions) const {
+  const auto& st = context_.stats;
+  auto ctrl = control.narrow(-1, 0, 2);  // dx, dz
+  if (static_cast<int>(st.control_mean.size()) == context_.control_dim &&
+      static_cast<int>(st.control_std.size()) == context_.control_dim) {
+    auto to = torch::TensorOptions().dtype(control.scalar_type()).device(control.device());
+    auto mean = torch::tensor(std::vector<float>(st.control_mean.begin(), st.control_mean.begin() + 2)).to(to);
+    auto std_ = torch::tensor(std::vector<float>(st.control_std.begin(), st.control_std.begin() + 2)).to(to);
+    ctrl = ctrl * std_ + mean;
+  }
+  // sqrt(x + 1e-8): a finite gradient at standstill.
+  WindowSpeeds w;
+  w.root_mps = (ctrl.pow(2).sum(-1) + 1e-8).sqrt().mean(1) * context_.fps;
+  const int64_t t = positions.size(1);
+  if (t < 2) {
+    w.body_mps = torch::zeros_like(w.root_mps);
+    return w;
+  }
+  auto step = positions.narrow(1, 1, t - 1) - positions.narrow(1, 0, t - 1);
+  auto rate = positions.dim() == 4 ? (step.pow(2).sum(-1) + 1e-8).sqrt().mean(-1)          // [B, T-1], metres
+                                   : (step.pow(2).mean(-1) + 1e-8).sqrt();                 // RMS, standardised
+  w.body_mps = rate.mean(1) * context_.fps;
+  return w;
+}
+
+torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
+                                          LossTerms& out) {
+  const bool plain = ae->head() == DfnPoseHead::kPlain;
+  std::vector<torch::Tensor> controls, poses;
+  for (int r = 0; r < options_.rollout_frames; ++r) {  // as step_stream, reparameterised
+    const auto h_t = state.second;
+    auto f = reparameterise(dyn->prior_f(h_t));
+    auto s = reparameterise(dyn->prior_s(dyn->decode_m(f, h_t), h_t));
+    auto x = ae->decode(dyn->decode_z(s, h_t));
+    controls.push_back(x.control);
+    poses.push_back(plain ? x.pose : x.positions);
+    state = dyn->step(state, s, f);
+  }
+  const WindowSpeeds gen = window_speeds(torch::stack(controls, 1), torch::stack(poses, 1));
+  WindowSpeeds real;
+  {
+    torch::NoGradGuard no_grad;
+    real = window_speeds(batch.control, plain ? batch.pose : ae->feature_positions(batch.pose));
+  }
+  const double e = kRolloutSpeedFloorMps;
+  auto log_ratio2 = [e](const torch::Tensor& a, const torch::Tensor& b) { return (torch::log(a + e) - torch::log(b + e)).pow(2); };
+  auto term = (log_ratio2(gen.root_mps, real.root_mps) + log_ratio2(gen.body_mps, real.body_mps)).mean();
+  out.terms["rollout_speed"] = term.detach();
+  out.terms["rollout_root_mps"] = gen.root_mps.mean().detach();
+  out.terms["rollout_body_mps"] = gen.body_mps.mean().detach();
+  out.terms["real_root_mps"] = real.root_mps.mean();
+  out.terms["real_body_mps"] = real.body_mps.mean();
+  return term;
+}
+
 LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   check_batch(batch, options_.horizon + 1);
   const int64_t h = options_.horizon, b = batch.pose.size(0), l = batch.pose.size(1) - h;
@@ -202,6 +257,8 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     if (options_.prior_rollout > 0) std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t);
     state = dyn->step(state, s_next, f_next);
   }
+  LossTerms out;
+  auto rollout = options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, out) : torch::zeros({}, opts);
   auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
   if (max_delta >= 1) {
@@ -226,12 +283,12 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   }
   const double per = 1.0 / static_cast<double>(l);
   auto nz = (nll_z * per).mean(), nm = (nll_m * per).mean(), ks = (kl_s * per).mean(), kf = (kl_f * per).mean();
-  LossTerms out;
   // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
   const double free = options_.kl_free_nats;
   auto ks_loss = free > 0 ? torch::clamp_min(ks, free) : ks, kf_loss = free > 0 ? torch::clamp_min(kf, free) : kf;
   out.terms["loss"] =
-      nz + options_.m_weight * nm + options_.kl_weight * (ks_loss + kf_loss) + options_.td_weight * (td_kl + td_nll);
+      nz + options_.m_weight * nm + options_.kl_weight * (ks_loss + kf_loss) + options_.td_weight * (td_kl + td_nll) +
+      options_.rollout_speed_weight * rollout;
   out.terms["nll_z"] = nz.detach();
   out.terms["z_mse"] = (z_se * per).mean();
   out.terms["nll_m"] = nm.detach();

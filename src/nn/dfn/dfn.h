@@ -81,6 +81,17 @@ struct DfnOptions {
   // so the priors learn to bring open-loop motion back to the data (scheduled sampling, Bengio et
   // al. 2015, in the latent space). 0 = the paper's training: always the posteriors.
   double prior_rollout = 0.0;
+  // Open-loop speed term of the dynamics stage (an addition to the paper, README): after the
+  // posterior pass over a training window the model generates rollout_frames more frames from its
+  // priors, exactly as step_stream does (reparameterised draws), and the loss adds
+  // rollout_speed_weight * [(log(root + e) - log(root* + e))^2 + (log(body + e) - log(body* + e))^2]
+  // per window, where root / body are the rollout's mean root and body speed (m/s; window_speeds)
+  // and root* / body* the real window's, e = kRolloutSpeedFloorMps. It matches a moment of the
+  // motion, not poses, so it does not pull generations to the mean pose; against the slow-down of
+  // open-loop walks and runs as the teacher-forced fit sharpens (models/dfn-bandai/README.md).
+  // 0 = off (the paper).
+  double rollout_speed_weight = 0.0;
+  int rollout_frames = 30;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when
@@ -216,6 +227,19 @@ class DfnImpl : public MotionModel {
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
   StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
 
+  // Mean speeds per window, [B] each: the root's from standardised controls [B, T, C] (dx, dz
+  // de-standardised with the context's statistics when it has them, metres per frame, times fps),
+  // and the body's, the mean over joints and frame pairs of the joint speed relative to the
+  // trajectory joint (m/s), from joint positions [B, T, J, 3] in metres (FK heads); the plain head
+  // passes standardised pose features [B, T, D] instead and gets their RMS rate per second.
+  struct WindowSpeeds {
+    torch::Tensor root_mps, body_mps;
+  };
+  WindowSpeeds window_speeds(const torch::Tensor& control, const torch::Tensor& positions) const;
+  // The real speeds' floor in the open-loop speed term (DfnOptions::rollout_speed_weight): below
+  // it, differences of standing weight shifts (a few cm/s) weigh little.
+  static constexpr double kRolloutSpeedFloorMps = 0.05;
+
   // Codes of a pose/control sequence [B, T, D], [B, T, C] -> [B, T, code].
   torch::Tensor codes(const torch::Tensor& pose, const torch::Tensor& control);
   // Future windows z_{t+1..t+H} of codes [B, T, K] for t = 0..T-H-1 -> [B, T-H, H, K].
@@ -227,6 +251,10 @@ class DfnImpl : public MotionModel {
 
  private:
   void check_batch(const Batch& batch, int64_t min_frames) const;
+  // The open-loop speed term of one batch (DfnOptions::rollout_speed_weight) from the state the
+  // posterior pass reached; adds its log terms to out.
+  torch::Tensor rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
+                                   LossTerms& out);
   int stage_ = -1;
   DfnOptions options_;
   ModelContext context_;

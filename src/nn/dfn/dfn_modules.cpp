@@ -70,6 +70,10 @@ const OptionFields<DfnOptions>& dfn_fields() {
           .field("prior_rollout", &O::prior_rollout,
                  "dynamics stage: probability that the state advances with prior draws (0 = posteriors)",
                  in_range(0.0, 1.0))
+          .field("rollout_speed_weight", &O::rollout_speed_weight,
+                 "dynamics stage: weight of the open-loop speed term (0 = off)", at_least(0.0))
+          .field("rollout_frames", &O::rollout_frames, "dynamics stage: frames generated open loop for that term",
+                 at_least(2))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")
