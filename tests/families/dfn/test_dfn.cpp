@@ -84,6 +84,27 @@ Batch random_batch(const ModelContext& c) {
 
 double dist(const torch::Tensor& p, int a, int b) { return (p[a] - p[b]).norm().item<double>(); }
 
+// The dynamics-stage loss of b under config with every prior term but the code likelihood off
+// (kl, m and td weights 0), back-propagated under seed 6; returns the loss terms and sets
+// *prior_gradient to the summed absolute gradient of p(f | h), p(m | f, h) and p(s | m, h).
+LossTerms dynamics_without_prior_terms(const ModelContext& c, const Batch& b, nlohmann::json config,
+                                       double* prior_gradient) {
+  config["kl_weight"] = 0.0;
+  config["m_weight"] = 0.0;
+  config["td_weight"] = 0.0;
+  auto m = make(c, config);
+  m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
+  torch::manual_seed(6);
+  m->zero_grad();
+  LossTerms out = m->loss(b);
+  out.loss().backward();
+  *prior_gradient = 0;
+  for (auto* net : {&m->dyn->prior_f_net, &m->dyn->m_net, &m->dyn->prior_s_net})
+    for (const auto& w : (*net)->parameters())
+      if (w.grad().defined()) *prior_gradient += w.grad().abs().sum().item<double>();
+  return out;
+}
+
 }  // namespace
 
 TEST(Dfn, FkLayerMatchesCoreForwardKinematics) {
@@ -422,19 +443,9 @@ TEST(Dfn, PriorRolloutAdvancesTheStateWithThePriorsDraws) {
   auto prior_gradient = [&](double p) {
     auto config = tiny();
     config["prior_rollout"] = p;
-    config["kl_weight"] = 0.0;
-    config["m_weight"] = 0.0;
-    config["td_weight"] = 0.0;
-    auto m = make(c, config);
-    m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
-    torch::manual_seed(6);
-    m->zero_grad();
-    m->loss(b).loss().backward();
-    double total = 0;
-    for (auto* net : {&m->dyn->prior_f_net, &m->dyn->m_net, &m->dyn->prior_s_net})
-      for (const auto& w : (*net)->parameters())
-        if (w.grad().defined()) total += w.grad().abs().sum().item<double>();
-    return total;
+    double g = 0;
+    dynamics_without_prior_terms(c, b, config, &g);
+    return g;
   };
   EXPECT_EQ(prior_gradient(0.0), 0.0);
   EXPECT_GT(prior_gradient(1.0), 1e-6);
@@ -470,20 +481,7 @@ TEST(Dfn, RolloutSpeedTermEntersTheLossAndReachesThePriors) {
     auto config = tiny();
     config["rollout_speed_weight"] = weight;
     config["rollout_frames"] = 5;
-    config["kl_weight"] = 0.0;
-    config["m_weight"] = 0.0;
-    config["td_weight"] = 0.0;
-    auto m = make(c, config);
-    m->begin_stage(2, m->training_stages(TrainStageDefaults{})[2]);
-    torch::manual_seed(6);
-    m->zero_grad();
-    LossTerms out = m->loss(b);
-    out.loss().backward();
-    *prior_gradient = 0;
-    for (auto* net : {&m->dyn->prior_f_net, &m->dyn->m_net, &m->dyn->prior_s_net})
-      for (const auto& w : (*net)->parameters())
-        if (w.grad().defined()) *prior_gradient += w.grad().abs().sum().item<double>();
-    return out;
+    return dynamics_without_prior_terms(c, b, config, prior_gradient);
   };
   double g0 = 0, g2 = 0;
   const LossTerms off = run(0.0, &g0), on = run(2.0, &g2);
