@@ -154,6 +154,17 @@ torch::Tensor reparameterise(const DfnDynamicsImpl::Gaussian& g) {
   return g.mean + torch::exp(0.5 * g.logvar) * eps;
 }
 
+// One frame's latents from the priors, as generation draws them: f ~ p(f | h) (pf given), m decoded
+// from it, s ~ p(s | m, h); sample(Gaussian) makes each draw. Returns {s, f}. Shared by
+// step_stream, scheduled prior draws and the open-loop speed term, so all three generate alike.
+template <class Sample>
+std::pair<torch::Tensor, torch::Tensor> prior_latents(DfnDynamicsImpl& dyn, const DfnDynamicsImpl::Gaussian& pf,
+                                                      const torch::Tensor& h, Sample&& sample) {
+  auto f = sample(pf);
+  auto s = sample(dyn.prior_s(dyn.decode_m(f, h), h));
+  return {s, f};
+}
+
 // The latents that advance the state under scheduled prior draws (DfnOptions::prior_rollout): for
 // each window, with probability p the priors' draws (f ~ p(f | h), s ~ p(s | m(f, h), h), as
 // step_stream generates), else the posteriors' s and f. Reparameterised, so the gradient reaches
@@ -161,8 +172,7 @@ torch::Tensor reparameterise(const DfnDynamicsImpl::Gaussian& g) {
 std::pair<torch::Tensor, torch::Tensor> scheduled_latents(DfnDynamicsImpl& dyn, double p, const torch::Tensor& s,
                                                           const torch::Tensor& f, const DfnDynamicsImpl::Gaussian& pf,
                                                           const torch::Tensor& h) {
-  auto f_prior = reparameterise(pf);
-  auto s_prior = reparameterise(dyn.prior_s(dyn.decode_m(f_prior, h), h));
+  const auto [s_prior, f_prior] = prior_latents(dyn, pf, h, reparameterise);
   auto use = (torch::rand({s.size(0), 1}, torch::TensorOptions().dtype(s.scalar_type())) < p).to(s.options());
   return {use * s_prior + (1 - use) * s, use * f_prior + (1 - use) * f};
 }
@@ -200,8 +210,7 @@ torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::T
   std::vector<torch::Tensor> controls, poses;
   for (int r = 0; r < options_.rollout_frames; ++r) {  // as step_stream, reparameterised
     const auto h_t = state.second;
-    auto f = reparameterise(dyn->prior_f(h_t));
-    auto s = reparameterise(dyn->prior_s(dyn->decode_m(f, h_t), h_t));
+    const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t), h_t, reparameterise);
     auto x = ae->decode(dyn->decode_z(s, h_t));
     controls.push_back(x.control);
     poses.push_back(plain ? x.pose : x.positions);
@@ -402,9 +411,8 @@ StreamFrame DfnImpl::step_stream(StreamState& state, const torch::Tensor& /*cont
   auto* st = dynamic_cast<DfnStream*>(&state);
   if (!st) throw Error("dfn: step_stream needs a stream begun by a dfn model");
   const auto h_t = st->state.second;
-  auto f = draw(dyn->prior_f(h_t), *st);
-  auto m = dyn->decode_m(f, h_t);
-  auto s = draw(dyn->prior_s(m, h_t), *st);
+  const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t), h_t,
+                                    [&](const DfnDynamicsImpl::Gaussian& g) { return draw(g, *st); });
   auto z = dyn->decode_z(s, h_t);
   auto x = ae->decode(z);
   st->state = dyn->step(st->state, s, f);
