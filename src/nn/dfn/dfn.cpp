@@ -223,7 +223,10 @@ torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::T
     real = window_speeds(batch.control, plain ? batch.pose : ae->feature_positions(batch.pose));
   }
   const double e = kRolloutSpeedFloorMps;
-  auto log_ratio2 = [e](const torch::Tensor& a, const torch::Tensor& b) { return (torch::log(a + e) - torch::log(b + e)).pow(2); };
+  const double band = std::log(options_.rollout_speed_tolerance);
+  auto log_ratio2 = [e, band](const torch::Tensor& a, const torch::Tensor& b) {
+    return torch::relu((torch::log(a + e) - torch::log(b + e)).abs() - band).pow(2);
+  };
   auto term = (log_ratio2(gen.root_mps, real.root_mps) + log_ratio2(gen.body_mps, real.body_mps)).mean();
   out.terms["rollout_speed"] = term.detach();
   out.terms["rollout_root_mps"] = gen.root_mps.mean().detach();

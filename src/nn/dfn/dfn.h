@@ -85,6 +85,7 @@ struct DfnOptions {
   // posterior pass over a training window the model generates rollout_frames more frames from its
   // priors, exactly as step_stream does (reparameterised draws), and the loss adds
   // rollout_speed_weight * [(log(root + e) - log(root* + e))^2 + (log(body + e) - log(body* + e))^2]
+  // (beyond rollout_speed_tolerance)
   // per window, where root / body are the rollout's mean root and body speed (m/s; window_speeds)
   // and root* / body* the real window's, e = kRolloutSpeedFloorMps. It matches a moment of the
   // motion, not poses, so it does not pull generations to the mean pose; against the slow-down of
@@ -92,6 +93,11 @@ struct DfnOptions {
   // 0 = off (the paper).
   double rollout_speed_weight = 0.0;
   int rollout_frames = 30;
+  // Ratio (>= 1) within which the rollout's speeds go unpenalised: each squared log ratio above
+  // becomes max(0, |log(a + e) - log(b + e)| - log(tolerance))^2, so a rollout only has to stay
+  // within that factor of its window's speed, not match it, and draws keep their spread inside
+  // the band. 1 = exact matching (the term as first trained).
+  double rollout_speed_tolerance = 1.0;
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when

@@ -74,6 +74,8 @@ const OptionFields<DfnOptions>& dfn_fields() {
                  "dynamics stage: weight of the open-loop speed term (0 = off)", at_least(0.0))
           .field("rollout_frames", &O::rollout_frames, "dynamics stage: frames generated open loop for that term",
                  at_least(2))
+          .field("rollout_speed_tolerance", &O::rollout_speed_tolerance,
+                 "dynamics stage: speed ratio within which that term is zero (1 = exact matching)", at_least(1.0))
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")

@@ -498,6 +498,30 @@ TEST(Dfn, RolloutSpeedTermEntersTheLossAndReachesThePriors) {
   EXPECT_THROW(DfnOptions::from_json(bad), Error);
 }
 
+TEST(Dfn, RolloutSpeedToleranceOnlyPenalisesSpeedsOutsideItsBand) {
+  // The same draws under one seed: a band wider than any ratio zeroes the term and the priors'
+  // gradient; a band of 1 is exact matching; a band between gives a term between.
+  const ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  const Batch b = random_batch(c);
+  auto run = [&](double tolerance, double* prior_gradient) {
+    auto config = tiny();
+    config["rollout_speed_weight"] = 1.0;
+    config["rollout_frames"] = 5;
+    config["rollout_speed_tolerance"] = tolerance;
+    return dynamics_without_prior_terms(c, b, config, prior_gradient).terms.at("rollout_speed").item<double>();
+  };
+  double g_exact = 0, g_mid = 0, g_wide = 0;
+  const double exact = run(1.0, &g_exact), mid = run(1.05, &g_mid), wide = run(1e6, &g_wide);
+  EXPECT_GT(exact, 0.0);
+  EXPECT_GT(g_exact, 1e-6);
+  EXPECT_LT(mid, exact);
+  EXPECT_EQ(wide, 0.0);
+  EXPECT_EQ(g_wide, 0.0);
+  auto bad = tiny();
+  bad["rollout_speed_tolerance"] = 0.9;
+  EXPECT_THROW(DfnOptions::from_json(bad), Error);
+}
+
 TEST(Dfn, ObservationLogVarianceFloorBoundsTheCodeAndFutureTerms) {
   // log p(z | s, h) by hand: -1/2 sum(log 2 pi + lv + (z - mean)^2 / e^lv), lv the floored
   // variance; below the floor no gradient reaches the log-variance parameter.
