@@ -553,4 +553,26 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
     }
   EXPECT_NEAR(planted, sum / (2 * k), 1e-6);
   EXPECT_GT(planted, 0.0);
+
+  // The heel-speed error on the same draws: standing data's heels do not move, so on every frame
+  // it is the made heel's speed, the planted term's value, less the data heel's floor speed
+  // sqrt(1e-12) m a frame (nn::joint_ground_speed_mps); training adds weight x error.
+  cfg["heel_speed_weight"] = 0.5;
+  auto both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  both->to(torch::kFloat64);
+  torch::manual_seed(1);
+  randomise(*both);
+  auto loss_in = [&](bool training) {
+    both->train(training);
+    return both->loss(Batch{pose, control, {}, {}});
+  };
+  const LossTerms eval_terms = loss_in(false), train_terms = loss_in(true);
+  const double error = eval_terms.terms.at("heel_speed_error_mps").item<double>();
+  EXPECT_NEAR(error, eval_terms.terms.at("planted_heel_mps").item<double>() - 1e-6 * ctx.fps, 1e-8);
+  EXPECT_GT(error, 0.0);
+  EXPECT_NEAR(train_terms.loss().item<double>(),
+              eval_terms.loss().item<double>() + 1.0 * eval_terms.terms.at("planted_heel_mps").item<double>() + 0.5 * error,
+              1e-6);
+  cfg["heel_speed_weight"] = -1.0;
+  EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
 }

@@ -80,6 +80,10 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("foot_contact_temperature", &O::foot_contact_temperature,
                  "latent standard deviation of the planted-heel term's draws", at_least(0.0))
           .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
+          .field("heel_speed_weight", &O::heel_speed_weight,
+                 "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
+                 at_least(0.0))
+          .written_if([](const O& o) { return o.heel_speed_weight > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -258,7 +262,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.foot_contact_weight > 0) planted_heels_ = PlantedHeelTerm(context, "moglow");
+  if (options.foot_contact_weight > 0 || options.heel_speed_weight > 0) planted_heels_ = PlantedHeelTerm(context, "moglow");
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -384,8 +388,8 @@ torch::Tensor MoGlowImpl::rollout(const torch::Tensor& seen, const torch::Tensor
   return torch::stack(std::vector<torch::Tensor>(frames.end() - k, frames.end()), 1);
 }
 
-torch::Tensor MoGlowImpl::planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
-                                            const torch::Tensor& valid) {
+MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
+                                             const torch::Tensor& valid) {
   const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
   int64_t n = e.z.size(1);
   torch::Tensor made, prev;
@@ -408,8 +412,12 @@ torch::Tensor MoGlowImpl::planted_heel_term(const Batch& batch, const torch::Ten
   const auto made_pairs = pairs(prev, made, d);
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
-  return planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs,
-                                           valid.defined() ? valid.narrow(1, 0, n).reshape({-1, 1}) : valid);
+  const auto valid_pairs = valid.defined() ? valid.narrow(1, 0, n).reshape({-1, 1}) : valid;
+  HeelTerms out;
+  out.planted_mps = planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs, valid_pairs);
+  if (options_.heel_speed_weight > 0)
+    out.speed_error_mps = planted_heels_.mean_speed_error(made_pairs, real_pairs, control_pairs, valid_pairs);
+  return out;
 }
 
 torch::Tensor MoGlowImpl::log_likelihood(const torch::Tensor& pose, const torch::Tensor& control) {
@@ -456,12 +464,17 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
   auto nll_frame = -ll.mean();
   LossTerms out;
   out.terms["loss"] = nll_frame / d;
-  if (options_.foot_contact_weight > 0) {
+  if (options_.foot_contact_weight > 0 || options_.heel_speed_weight > 0) {
     // Training only, so that the validation loss stays the likelihood, comparable across runs.
     const auto seen = offset.defined() ? batch.pose + offset : batch.pose;
-    const auto planted = planted_heel_term(batch, seen, e, valid);
-    if (is_training()) out.terms["loss"] = out.terms["loss"] + options_.foot_contact_weight * planted;
-    out.terms["planted_heel_mps"] = planted.detach();
+    const HeelTerms heels = heel_terms(batch, seen, e, valid);
+    auto added = options_.foot_contact_weight * heels.planted_mps;
+    if (heels.speed_error_mps.defined()) {
+      added = added + options_.heel_speed_weight * heels.speed_error_mps;
+      out.terms["heel_speed_error_mps"] = heels.speed_error_mps.detach();
+    }
+    if (is_training()) out.terms["loss"] = out.terms["loss"] + added;
+    out.terms["planted_heel_mps"] = heels.planted_mps.detach();
   }
   out.terms["nll_frame"] = nll_frame.detach();
   out.terms["nll_dim"] = (nll_frame / d).detach();

@@ -72,6 +72,12 @@ struct MoGlowOptions {
   // conditioned on the draws before it, as in sampling (the glide of a model fed its own history).
   int foot_contact_rollout = 0;
   double foot_contact_temperature = 1.0;  // latent standard deviation of the term's draws
+  // Training only, positions form: weight of the heel-speed error on the same draws
+  // (PlantedHeelTerm::mean_speed_error: |made - real| heel ground speed, m/s, on every frame).
+  // The planted-heel term charges only a heel that glides where the data's stands; one that
+  // lingers slow into the data's swing (contacts too long, the independent check's steps 1.5x
+  // real) costs it nothing, and this term charges both. 0 = off. Logged as heel_speed_error_mps.
+  double heel_speed_weight = 0.0;
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -249,11 +255,15 @@ class MoGlowImpl : public MotionModel {
   int lookahead_dim_ = 0;
   double dropout_ = 0.0;
   PoseTransport transport_;  // with options_.residual
-  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight > 0
-  // The planted-heel term of a batch (see MoGlowOptions::foot_contact_weight): seen = the poses
-  // conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined = all frames).
-  torch::Tensor planted_heel_term(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
-                                  const torch::Tensor& valid);
+  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight or heel_speed_weight > 0
+  // The heel terms of a batch on one set of draws (MoGlowOptions::foot_contact_weight,
+  // heel_speed_weight): planted-heel speed and heel-speed error, m/s scalars (the error undefined
+  // when its weight is 0). seen = the poses conditioned on [B, T, D], e the window's encoding,
+  // valid [B, T'] (undefined = all frames).
+  struct HeelTerms {
+    torch::Tensor planted_mps, speed_error_mps;
+  };
+  HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
   // of frames tau..tau+k-1 generated from seen frames 0..tau-1, conditioned as e.cond apart from
   // the history.
