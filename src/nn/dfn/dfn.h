@@ -85,8 +85,7 @@ struct DfnOptions {
   // posterior pass over a training window the model generates rollout_frames more frames from its
   // priors, exactly as step_stream does (reparameterised draws), and the loss adds
   // rollout_speed_weight * [(log(root + e) - log(root* + e))^2 + (log(body + e) - log(body* + e))^2]
-  // (beyond rollout_speed_tolerance)
-  // per window, where root / body are the rollout's mean root and body speed (m/s; window_speeds)
+  // per window (each ratio counted only beyond rollout_speed_tolerance, below), where root / body are the rollout's mean root and body speed (m/s; window_speeds)
   // and root* / body* the real window's, e = kRolloutSpeedFloorMps. It matches a moment of the
   // motion, not poses, so it does not pull generations to the mean pose; against the slow-down of
   // open-loop walks and runs as the teacher-forced fit sharpens (models/dfn-bandai/README.md).

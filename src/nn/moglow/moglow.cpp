@@ -262,7 +262,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.foot_contact_weight > 0 || options.heel_speed_weight > 0) planted_heels_ = PlantedHeelTerm(context, "moglow");
+  if (options.heel_terms_on()) planted_heels_ = PlantedHeelTerm(context, "moglow");
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -464,7 +464,7 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
   auto nll_frame = -ll.mean();
   LossTerms out;
   out.terms["loss"] = nll_frame / d;
-  if (options_.foot_contact_weight > 0 || options_.heel_speed_weight > 0) {
+  if (options_.heel_terms_on()) {
     // Training only, so that the validation loss stays the likelihood, comparable across runs.
     const auto seen = offset.defined() ? batch.pose + offset : batch.pose;
     const HeelTerms heels = heel_terms(batch, seen, e, valid);

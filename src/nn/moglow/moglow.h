@@ -78,6 +78,8 @@ struct MoGlowOptions {
   // lingers slow into the data's swing (contacts too long, the independent check's steps 1.5x
   // real) costs it nothing, and this term charges both. 0 = off. Logged as heel_speed_error_mps.
   double heel_speed_weight = 0.0;
+  // Whether training draws frames for the heel terms (either weight above is on).
+  bool heel_terms_on() const { return foot_contact_weight > 0 || heel_speed_weight > 0; }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
