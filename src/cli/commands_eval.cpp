@@ -30,6 +30,7 @@ struct EvalArgs {
   eval::EvalOptions options;
   std::string foot_joints, protocols;
   bool no_prediction = false;
+  bool no_labels = false;
   bool no_joint_errors = false;
   std::string plot;  // PNG of the curves
 };
@@ -72,6 +73,7 @@ void run_eval(EvalArgs a) {
   o.metrics.foot_joints = feet;
   o.only_protocols = split_commas(a.protocols);
   o.prediction = !a.no_prediction;
+  o.clip_labels = !a.no_labels;
   o.joint_errors = !a.no_joint_errors;
   if (!(o.error_frames_fps > 0)) throw UsageError("--error-fps must be positive");
   if (o.initial_frames < 1) throw UsageError("--initial-frames must be >= 1");
@@ -205,6 +207,8 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_option("--mm-threshold", a->options.multimodal_threshold_m,
                   "prediction: MMADE/MMFDE grouping distance of last observed poses, m (default 0.5)");
   cmd->add_flag("--no-prediction", a->no_prediction, "skip the stochastic-prediction metrics");
+  cmd->add_flag("--no-labels", a->no_labels,
+                "label-conditioned models: sample the held-out clips' controls and prefixes with no label");
   cmd->add_option("--protocols", a->protocols,
                   "run only these comma-separated protocols, e.g. prediction,body_validity (default: all that apply: "
                   "locomotion, paths, diversity, joint_errors, prediction, body_validity, recognition, "

@@ -24,6 +24,10 @@ struct EvalOptions {
   double warmup_s = -1.0;        // synthesis: standing generated first and dropped (nn SampleExtras);
                                  // < 0 = the family's default_warmup_s() (MoGlow 1 s, rvae 0)
   bool include_augmented = false;  // also evaluate mirrored / reversed / retimed copies in the split
+  // Give a label-conditioned model each held-out clip's own content and style (true), or no label
+  // (-1: what the model does on its own, e.g. a Dynamic Future Net's transitions between contents).
+  // The label-generation protocol asks for every label either way.
+  bool clip_labels = true;
   // Joint-position errors against the held-out clip itself (Habibie et al. 2017, Tables 1-2),
   // at the times of `error_frames` counted at `error_frames_fps` (the paper: frames 70..210 of
   // 4-s clips at 60 Hz, i.e. 1.17..3.5 s), from a prior sample and from `initial_frames` real

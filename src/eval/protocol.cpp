@@ -55,7 +55,7 @@ const std::vector<MetricValue>& EvalContext::real_set_metrics() {
 
 nn::SampleExtras EvalContext::clip_labels(size_t i) const {
   nn::SampleExtras extras;
-  if (run_.traits.labels) {  // the clip's own labels, when the model is conditioned on labels
+  if (run_.traits.labels && options_.clip_labels) {  // the clip's own labels, for a label-conditioned model
     const data::ClipRecord& rec = clip(i);
     extras.content = translate_label(rec.content, info().content_labels, run_.dataset.content_labels);
     extras.style = translate_label(rec.style, info().style_labels, run_.dataset.style_labels);

@@ -16,6 +16,7 @@
 #include "eval/evaluate.h"
 #include "data/control.h"
 #include "eval/path_protocol.h"
+#include "eval/protocol.h"
 #include "eval/protocols/protocols.h"
 #include "eval/report.h"
 #include "metrics/set_metrics.h"
@@ -552,6 +553,29 @@ TEST_F(EvaluateTest, LabelGenerationScoresEveryCombination) {
   run.traits.labels = false;
   EXPECT_TRUE(eval::evaluate(run, *dataset_, e).protocols.empty());
   EXPECT_THROW(result_->row("label_generation.fid"), Error);
+}
+
+// A label-conditioned run samples each held-out clip with the clip's own labels, or, with
+// EvalOptions::clip_labels off (mosyn eval --no-labels), with none.
+TEST_F(EvaluateTest, ClipLabelsGoToLabelledRunsUnlessTurnedOff) {
+  nn::LoadedRun run = nn::load_run((*root_ / "run").string());
+  eval::EvalOptions e;
+  e.max_clips = 3;
+  e.threads = 1;
+  const eval::EvalContext unlabelled(run, *dataset_, e);
+  EXPECT_EQ(unlabelled.clip_labels(0).content, -1);  // the run takes no labels
+  run.traits.labels = true;  // the tiny MoGlow stands in for a labelled run, as above
+  const eval::EvalContext labelled(run, *dataset_, e);
+  e.clip_labels = false;
+  const eval::EvalContext turned_off(run, *dataset_, e);
+  for (size_t i = 0; i < labelled.num_clips(); ++i) {
+    const data::ClipRecord& rec = labelled.clip(i);
+    ASSERT_GE(rec.content, 0);
+    EXPECT_EQ(labelled.clip_labels(i).content, rec.content);
+    EXPECT_EQ(labelled.clip_labels(i).style, rec.style);
+    EXPECT_EQ(turned_off.clip_labels(i).content, -1);
+    EXPECT_EQ(turned_off.clip_labels(i).style, -1);
+  }
 }
 
 // Three runs on two datasets: one column per run, one real column per dataset, n/a where a

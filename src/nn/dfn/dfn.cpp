@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "nn/label_features.h"
 
 namespace mosyn::nn {
 
@@ -18,7 +19,26 @@ DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
   if (context.pose_dim <= 0 || context.control_dim <= 0) throw Error("dfn: the model context has no dimensions");
   ae = register_module("ae", DfnAutoencoder(options, context));
   future = register_module("future", DfnFuture(options));
-  dyn = register_module("dyn", DfnDynamics(options));
+  const int label_dim = options.labels ? context.num_content + context.num_style : 0;
+  dyn = register_module("dyn", DfnDynamics(options, label_dim));
+}
+
+std::vector<LabelInput> DfnImpl::label_inputs() const {
+  if (dyn->label_dim() == 0) return {};
+  const int64_t h = options_.state, f = options_.future_latent, s = options_.current_latent, m = options_.future,
+                z = options_.code;
+  // Each labelled input ends with the label block (DfnDynamicsImpl::with_labels).
+  return {{"dyn.gru1.weight_ih", 1, s + f},
+          {"dyn.prior_f.0.weight", 1, h},
+          {"dyn.post_f.0.weight", 1, h + m},
+          {"dyn.prior_s.0.weight", 1, m + h},
+          {"dyn.post_s.0.weight", 1, h + z + m}};
+}
+
+torch::Tensor DfnImpl::labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
+                                 const torch::TensorOptions& options) const {
+  if (dyn->label_dim() == 0) return {};
+  return label_features(content, style, batch, context_.num_content, context_.num_style, options);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -159,9 +179,10 @@ torch::Tensor reparameterise(const DfnDynamicsImpl::Gaussian& g) {
 // step_stream, scheduled prior draws and the open-loop speed term, so all three generate alike.
 template <class Sample>
 std::pair<torch::Tensor, torch::Tensor> prior_latents(DfnDynamicsImpl& dyn, const DfnDynamicsImpl::Gaussian& pf,
-                                                      const torch::Tensor& h, Sample&& sample) {
+                                                      const torch::Tensor& h, const torch::Tensor& labels,
+                                                      Sample&& sample) {
   auto f = sample(pf);
-  auto s = sample(dyn.prior_s(dyn.decode_m(f, h), h));
+  auto s = sample(dyn.prior_s(dyn.decode_m(f, h), h, labels));
   return {s, f};
 }
 
@@ -171,8 +192,8 @@ std::pair<torch::Tensor, torch::Tensor> prior_latents(DfnDynamicsImpl& dyn, cons
 // the priors through the states that follow.
 std::pair<torch::Tensor, torch::Tensor> scheduled_latents(DfnDynamicsImpl& dyn, double p, const torch::Tensor& s,
                                                           const torch::Tensor& f, const DfnDynamicsImpl::Gaussian& pf,
-                                                          const torch::Tensor& h) {
-  const auto [s_prior, f_prior] = prior_latents(dyn, pf, h, reparameterise);
+                                                          const torch::Tensor& h, const torch::Tensor& labels) {
+  const auto [s_prior, f_prior] = prior_latents(dyn, pf, h, labels, reparameterise);
   auto use = (torch::rand({s.size(0), 1}, torch::TensorOptions().dtype(s.scalar_type())) < p).to(s.options());
   return {use * s_prior + (1 - use) * s, use * f_prior + (1 - use) * f};
 }
@@ -205,16 +226,16 @@ DfnImpl::WindowSpeeds DfnImpl::window_speeds(const torch::Tensor& control, const
 }
 
 torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
-                                          LossTerms& out) {
+                                          const torch::Tensor& labels, LossTerms& out) {
   const bool plain = ae->head() == DfnPoseHead::kPlain;
   std::vector<torch::Tensor> controls, poses;
   for (int r = 0; r < options_.rollout_frames; ++r) {  // as step_stream, reparameterised
     const auto h_t = state.second;
-    const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t), h_t, reparameterise);
+    const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t, labels), h_t, labels, reparameterise);
     auto x = ae->decode(dyn->decode_z(s, h_t));
     controls.push_back(x.control);
     poses.push_back(plain ? x.pose : x.positions);
-    state = dyn->step(state, s, f);
+    state = dyn->step(state, s, f, labels);
   }
   const WindowSpeeds gen = window_speeds(torch::stack(controls, 1), torch::stack(poses, 1));
   WindowSpeeds real;
@@ -242,6 +263,8 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   auto z = codes(batch.pose, batch.control).detach();                                         // [B, T, K]
   auto m = future->embed(future_windows(z).reshape({-1, h, options_.code})).reshape({b, l, -1}).detach();
   auto opts = z.options();
+  const double drop = is_training() ? options_.label_dropout : 0.0;
+  const auto labels = labels_of(drop_labels(batch.content, drop), drop_labels(batch.style, drop), b, opts);
   std::pair<torch::Tensor, torch::Tensor> state{torch::zeros({b, options_.state}, opts),
                                                 torch::zeros({b, options_.state}, opts)};
   auto nll_z = torch::zeros({b}, opts), nll_m = nll_z, kl_s = nll_z, kl_f = nll_z, z_se = nll_z;
@@ -249,9 +272,9 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   for (int64_t t = 0; t < l; ++t) {
     const auto h_t = state.second;
     auto z_t = z.select(1, t), m_t = m.select(1, t);
-    auto pf = dyn->prior_f(h_t), qf = dyn->posterior_f(h_t, m_t);
+    auto pf = dyn->prior_f(h_t, labels), qf = dyn->posterior_f(h_t, m_t, labels);
     auto f = reparameterise(qf);
-    auto ps = dyn->prior_s(m_t, h_t), qs = dyn->posterior_s(h_t, z_t, m_t);
+    auto ps = dyn->prior_s(m_t, h_t, labels), qs = dyn->posterior_s(h_t, z_t, m_t, labels);
     auto s = reparameterise(qs);
     nll_z = nll_z - dyn->log_p_z(z_t, s, h_t);
     {
@@ -266,11 +289,11 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     ps_mean.push_back(ps.mean);
     ps_logvar.push_back(ps.logvar);
     auto s_next = s, f_next = f;
-    if (options_.prior_rollout > 0) std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t);
-    state = dyn->step(state, s_next, f_next);
+    if (options_.prior_rollout > 0) std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t, labels);
+    state = dyn->step(state, s_next, f_next, labels);
   }
   LossTerms out;
-  auto rollout = options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, out) : torch::zeros({}, opts);
+  auto rollout = options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, labels, out) : torch::zeros({}, opts);
   auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
   if (max_delta >= 1) {
@@ -342,7 +365,7 @@ LossTerms DfnImpl::loss(const Batch& batch) {
 ModelTraits DfnImpl::traits() const {
   ModelTraits t;
   t.control = InputUse::kGenerates;
-  t.labels = false;
+  t.labels = dyn->label_dim() > 0;
   t.prefix = true;
   t.streaming = true;  // sample() is begin_stream + step_stream: equal by construction
   return t;
@@ -352,6 +375,7 @@ namespace {
 
 struct DfnStream : StreamState {
   std::pair<torch::Tensor, torch::Tensor> state;  // the two GRU layers' hidden states [B, state]
+  torch::Tensor labels;                            // [B, label features] or undefined (unlabelled)
   at::Generator gen;
   double temperature = 1.0;
 };
@@ -372,11 +396,14 @@ std::unique_ptr<StreamState> DfnImpl::begin_stream(const SampleRequest& request)
   int64_t b = request.batch;
   if (has_prefix) b = request.prefix_pose.size(0);
   else if (request.control.defined() && request.control.dim() == 3) b = request.control.size(0);
-  if (b <= 0) throw Error("dfn: begin_stream needs a batch size (prefix_pose, control or batch)");
+  else if (request.content.defined() && request.content.dim() == 1) b = request.content.size(0);
+  else if (request.style.defined() && request.style.dim() == 1) b = request.style.size(0);
+  if (b <= 0) throw Error("dfn: begin_stream needs a batch size (prefix_pose, control, labels or batch)");
   auto st = std::make_unique<DfnStream>();
   st->gen = at::detail::createCPUGenerator(request.seed);
   st->temperature = request.temperature;
   st->state = {torch::zeros({b, options_.state}, opts), torch::zeros({b, options_.state}, opts)};
+  st->labels = labels_of(request.content, request.style, b, opts);
   if (!has_prefix) return st;
   const auto& pre = request.prefix_pose;
   if (pre.dim() != 3 || pre.size(2) != d)
@@ -398,13 +425,13 @@ std::unique_ptr<StreamState> DfnImpl::begin_stream(const SampleRequest& request)
     torch::Tensor f, m;
     if (t + h < p) {
       m = future->embed(z.narrow(1, t + 1, h));
-      f = draw(dyn->posterior_f(h_t, m), *st);
+      f = draw(dyn->posterior_f(h_t, m, st->labels), *st);
     } else {
-      f = draw(dyn->prior_f(h_t), *st);
+      f = draw(dyn->prior_f(h_t, st->labels), *st);
       m = dyn->decode_m(f, h_t);
     }
-    auto s = draw(dyn->posterior_s(h_t, z.select(1, t), m), *st);
-    st->state = dyn->step(st->state, s, f);
+    auto s = draw(dyn->posterior_s(h_t, z.select(1, t), m, st->labels), *st);
+    st->state = dyn->step(st->state, s, f, st->labels);
   }
   return st;
 }
@@ -414,11 +441,11 @@ StreamFrame DfnImpl::step_stream(StreamState& state, const torch::Tensor& /*cont
   auto* st = dynamic_cast<DfnStream*>(&state);
   if (!st) throw Error("dfn: step_stream needs a stream begun by a dfn model");
   const auto h_t = st->state.second;
-  const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t), h_t,
+  const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t, st->labels), h_t, st->labels,
                                     [&](const DfnDynamicsImpl::Gaussian& g) { return draw(g, *st); });
   auto z = dyn->decode_z(s, h_t);
   auto x = ae->decode(z);
-  st->state = dyn->step(st->state, s, f);
+  st->state = dyn->step(st->state, s, f, st->labels);
   return {x.pose, x.control};
 }
 

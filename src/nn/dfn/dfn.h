@@ -97,6 +97,13 @@ struct DfnOptions {
   // within that factor of its window's speed, not match it, and draws keep their spread inside
   // the band. 1 = exact matching (the term as first trained).
   double rollout_speed_tolerance = 1.0;
+  // Content and style labels as conditions (beyond the paper, which conditions on the prefix
+  // alone; README): one-hot labels (nn/label_features.h) enter the priors p(f | h, c), p(s | m, h, c),
+  // the posteriors q(f | h, m, c), q(s | h, z, m, c) and the state transition GRU(h, [s, f, c]), so
+  // a walk's continuation knows it is a walk for all 30 s and a standing one that it stands. A
+  // warm start from an unlabelled run grows those inputs with zero columns: it starts as that run.
+  bool labels = false;
+  double label_dropout = 0.1;  // training: probability that a window's label is replaced by none
   double m_weight = 1.0;         // log p(m | f, h) of Eq. 15
   double td_weight = 1.0;        // the temporal-difference terms of Eq. 15
   // Stage lengths: fractions of the run's steps (autoencoder, future, dynamics), or, when
@@ -171,20 +178,25 @@ TORCH_MODULE(DfnFuture);
 // (3) The future-guided stochastic latent RNN.
 class DfnDynamicsImpl : public torch::nn::Module {
  public:
-  DfnDynamicsImpl(const DfnOptions& o);
+  // label_dim: width of the one-hot label features c (0 = unlabelled). Every `labels` argument
+  // below is c [B, label_dim] (undefined = no label: zeros) and is ignored when label_dim is 0.
+  DfnDynamicsImpl(const DfnOptions& o, int label_dim = 0);
   struct Gaussian {
     torch::Tensor mean, logvar;
   };
   static Gaussian split(const torch::Tensor& x);
-  Gaussian prior_f(const torch::Tensor& h);
-  Gaussian posterior_f(const torch::Tensor& h, const torch::Tensor& m);
+  Gaussian prior_f(const torch::Tensor& h, const torch::Tensor& labels = {});
+  Gaussian posterior_f(const torch::Tensor& h, const torch::Tensor& m, const torch::Tensor& labels = {});
   torch::Tensor decode_m(const torch::Tensor& f, const torch::Tensor& h);
-  Gaussian prior_s(const torch::Tensor& m, const torch::Tensor& h);
-  Gaussian posterior_s(const torch::Tensor& h, const torch::Tensor& z, const torch::Tensor& m);
+  Gaussian prior_s(const torch::Tensor& m, const torch::Tensor& h, const torch::Tensor& labels = {});
+  Gaussian posterior_s(const torch::Tensor& h, const torch::Tensor& z, const torch::Tensor& m,
+                       const torch::Tensor& labels = {});
   torch::Tensor decode_z(const torch::Tensor& s, const torch::Tensor& h);
   // One GRU step: state = {h1, h2} -> new state; h_t is the top layer h2.
   std::pair<torch::Tensor, torch::Tensor> step(const std::pair<torch::Tensor, torch::Tensor>& state,
-                                               const torch::Tensor& s, const torch::Tensor& f);
+                                               const torch::Tensor& s, const torch::Tensor& f,
+                                               const torch::Tensor& labels = {});
+  int label_dim() const { return label_dim_; }
   // log p(z | s, h) and log p(m | f, h): Gaussians with a learned per-dimension log-variance
   // (bounded softly to [-8, 8], then floored at observation_logvar_min) around decode_z /
   // decode_m, summed over the last dimension.
@@ -199,6 +211,11 @@ class DfnDynamicsImpl : public torch::nn::Module {
   double observation_logvar_min_ = -8.0;
   torch::nn::Sequential prior_f_net{nullptr}, post_f_net{nullptr}, m_net{nullptr}, prior_s_net{nullptr},
       post_s_net{nullptr}, z_net{nullptr}, td_q_net{nullptr}, td_p_net{nullptr};
+
+ private:
+  // torch::cat(parts, -1), with the labels (zeros when undefined) appended when label_dim > 0.
+  torch::Tensor with_labels(std::vector<torch::Tensor> parts, const torch::Tensor& labels) const;
+  int label_dim_ = 0;
 };
 TORCH_MODULE(DfnDynamics);
 
@@ -226,6 +243,14 @@ class DfnImpl : public MotionModel {
   LossTerms dynamics_loss(const Batch& batch);
 
   ModelTraits traits() const override;
+  // With labels: the first columns of the label block in each labelled input (priors, posteriors,
+  // the first GRU layer), for warm starts across vocabularies.
+  std::vector<LabelInput> label_inputs() const override;
+  // One-hot label features [B, num_content + num_style] of [B] int64 labels (-1 / undefined =
+  // none); undefined when the model takes no labels. Throws mosyn::Error for a label outside the
+  // vocabularies.
+  torch::Tensor labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,
+                          const torch::TensorOptions& options) const;
   // Posterior over the prefix (when given), then T frames from the priors; returns poses and the
   // generated root motion. Equals begin_stream + T step_stream calls.
   SampleOutput sample(const SampleRequest& request) override;
@@ -259,7 +284,7 @@ class DfnImpl : public MotionModel {
   // The open-loop speed term of one batch (DfnOptions::rollout_speed_weight) from the state the
   // posterior pass reached; adds its log terms to out.
   torch::Tensor rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
-                                   LossTerms& out);
+                                   const torch::Tensor& labels, LossTerms& out);
   int stage_ = -1;
   DfnOptions options_;
   ModelContext context_;

@@ -76,6 +76,11 @@ const OptionFields<DfnOptions>& dfn_fields() {
                  at_least(2))
           .field("rollout_speed_tolerance", &O::rollout_speed_tolerance,
                  "dynamics stage: speed ratio within which that term is zero (1 = exact matching)", at_least(1.0))
+          .field("labels", &O::labels, "content and style labels as conditions")
+          .written_if([](const O& o) { return o.labels; })
+          .field("label_dropout", &O::label_dropout, "probability a window's label is dropped in training",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.labels; })
           .field("m_weight", &O::m_weight, "weight of log p(m | f, h)", at_least(0.0))
           .field("td_weight", &O::td_weight, "weight of the temporal-difference terms", at_least(0.0))
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")
@@ -286,16 +291,16 @@ torch::Tensor DfnFutureImpl::reconstruct(const torch::Tensor& m, int64_t h) {
 // ---------------------------------------------------------------------------------------------
 // Dynamics
 
-DfnDynamicsImpl::DfnDynamicsImpl(const DfnOptions& o) {
+DfnDynamicsImpl::DfnDynamicsImpl(const DfnOptions& o, int label_dim) : label_dim_(label_dim) {
   const double a = o.leaky_slope;
-  const int h = o.state, f = o.future_latent, s = o.current_latent, m = o.future, z = o.code;
-  gru1 = register_module("gru1", torch::nn::GRUCell(s + f, h));
+  const int h = o.state, f = o.future_latent, s = o.current_latent, m = o.future, z = o.code, c = label_dim;
+  gru1 = register_module("gru1", torch::nn::GRUCell(s + f + c, h));
   gru2 = register_module("gru2", torch::nn::GRUCell(h, h));
-  prior_f_net = register_module("prior_f", dfn_mlp(h, o.prior_f_hidden, 2, 2 * f, a));       // 3 layers
-  post_f_net = register_module("post_f", dfn_mlp(h + m, o.post_f_hidden, 2, 2 * f, a));      // 2 hidden
-  m_net = register_module("m", dfn_mlp(f + h, o.m_hidden, 3, m, a));                        // 4 layers
-  prior_s_net = register_module("prior_s", dfn_mlp(m + h, o.prior_s_hidden, 1, 2 * s, a));   // 2 layers
-  post_s_net = register_module("post_s", dfn_mlp(h + z + m, o.post_s_hidden, 2, 2 * s, a));  // 2 hidden
+  prior_f_net = register_module("prior_f", dfn_mlp(h + c, o.prior_f_hidden, 2, 2 * f, a));       // 3 layers
+  post_f_net = register_module("post_f", dfn_mlp(h + m + c, o.post_f_hidden, 2, 2 * f, a));      // 2 hidden
+  m_net = register_module("m", dfn_mlp(f + h, o.m_hidden, 3, m, a));                            // 4 layers
+  prior_s_net = register_module("prior_s", dfn_mlp(m + h + c, o.prior_s_hidden, 1, 2 * s, a));   // 2 layers
+  post_s_net = register_module("post_s", dfn_mlp(h + z + m + c, o.post_s_hidden, 2, 2 * s, a));  // 2 hidden
   z_net = register_module("z", dfn_mlp(s + h, o.z_hidden, 3, z, a));                         // 3 hidden
   td_q_net = register_module("td_q", dfn_mlp(s + 2 * h, o.td_hidden, 2, 2 * s, a));          // Eq. 13
   td_p_net = register_module("td_p", dfn_mlp(s + 1, o.td_hidden, 3, 2 * s, a));              // Eq. 14
@@ -330,27 +335,48 @@ DfnDynamicsImpl::Gaussian DfnDynamicsImpl::split(const torch::Tensor& x) {
   return {parts[0], 8.0 * torch::tanh(parts[1] / 8.0)};
 }
 
-DfnDynamicsImpl::Gaussian DfnDynamicsImpl::prior_f(const torch::Tensor& h) { return split(prior_f_net->forward(h)); }
-DfnDynamicsImpl::Gaussian DfnDynamicsImpl::posterior_f(const torch::Tensor& h, const torch::Tensor& m) {
-  return split(post_f_net->forward(torch::cat({h, m}, -1)));
+torch::Tensor DfnDynamicsImpl::with_labels(std::vector<torch::Tensor> parts, const torch::Tensor& labels) const {
+  if (label_dim_ > 0) {
+    const auto& first = parts.front();
+    if (!labels.defined()) {
+      auto shape = first.sizes().vec();
+      shape.back() = label_dim_;
+      parts.push_back(torch::zeros(shape, first.options()));
+    } else {
+      if (labels.dim() != 2 || labels.size(0) != first.size(0) || labels.size(1) != label_dim_)
+        throw Error("dfn: labels must be [B, " + std::to_string(label_dim_) + "]");
+      parts.push_back(labels.to(first.options()));
+    }
+  }
+  return torch::cat(parts, -1);
+}
+
+DfnDynamicsImpl::Gaussian DfnDynamicsImpl::prior_f(const torch::Tensor& h, const torch::Tensor& labels) {
+  return split(prior_f_net->forward(with_labels({h}, labels)));
+}
+DfnDynamicsImpl::Gaussian DfnDynamicsImpl::posterior_f(const torch::Tensor& h, const torch::Tensor& m,
+                                                       const torch::Tensor& labels) {
+  return split(post_f_net->forward(with_labels({h, m}, labels)));
 }
 torch::Tensor DfnDynamicsImpl::decode_m(const torch::Tensor& f, const torch::Tensor& h) {
   return m_net->forward(torch::cat({f, h}, -1));
 }
-DfnDynamicsImpl::Gaussian DfnDynamicsImpl::prior_s(const torch::Tensor& m, const torch::Tensor& h) {
-  return split(prior_s_net->forward(torch::cat({m, h}, -1)));
+DfnDynamicsImpl::Gaussian DfnDynamicsImpl::prior_s(const torch::Tensor& m, const torch::Tensor& h,
+                                                   const torch::Tensor& labels) {
+  return split(prior_s_net->forward(with_labels({m, h}, labels)));
 }
 DfnDynamicsImpl::Gaussian DfnDynamicsImpl::posterior_s(const torch::Tensor& h, const torch::Tensor& z,
-                                                       const torch::Tensor& m) {
-  return split(post_s_net->forward(torch::cat({h, z, m}, -1)));
+                                                       const torch::Tensor& m, const torch::Tensor& labels) {
+  return split(post_s_net->forward(with_labels({h, z, m}, labels)));
 }
 torch::Tensor DfnDynamicsImpl::decode_z(const torch::Tensor& s, const torch::Tensor& h) {
   return z_net->forward(torch::cat({s, h}, -1));
 }
 
 std::pair<torch::Tensor, torch::Tensor> DfnDynamicsImpl::step(const std::pair<torch::Tensor, torch::Tensor>& state,
-                                                              const torch::Tensor& s, const torch::Tensor& f) {
-  auto h1 = gru1->forward(torch::cat({s, f}, -1), state.first);
+                                                              const torch::Tensor& s, const torch::Tensor& f,
+                                                              const torch::Tensor& labels) {
+  auto h1 = gru1->forward(with_labels({s, f}, labels), state.first);
   auto h2 = gru2->forward(h1, state.second);
   return {h1, h2};
 }

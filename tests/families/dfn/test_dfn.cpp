@@ -590,3 +590,65 @@ TEST(Dfn, InterruptedInTheSecondStageResumesExactly) {
   fs::remove_all(dir);
   fs::remove_all(full);
 }
+
+TEST(Dfn, LabelsConditionTheDynamicsAndAWarmStartFromAnUnlabelledRunStartsAsIt) {
+  ModelContext c = skeleton_context(data::PoseForm::kPositions);
+  c.num_content = 3;
+  c.num_style = 2;
+  auto plain = make(c);
+  plain->eval();
+  EXPECT_FALSE(plain->traits().labels);
+  auto config = tiny();
+  config["labels"] = true;
+  auto labelled = make(c, config);
+  labelled->eval();
+  EXPECT_TRUE(labelled->traits().labels);
+  // Every declared label block lies at the end of its parameter's input axis, 5 columns wide.
+  const auto params = labelled->named_parameters();
+  ASSERT_EQ(labelled->label_inputs().size(), 5u);
+  for (const LabelInput& in : labelled->label_inputs()) {
+    ASSERT_NE(params.find(in.parameter), nullptr) << in.parameter;
+    EXPECT_EQ(params[in.parameter].size(in.axis), in.offset + 5) << in.parameter;
+  }
+  // A warm start from the unlabelled model grows the five labelled inputs with zero columns: with
+  // any label it then generates exactly what the unlabelled model does.
+  const fs::path dir = run_dir("labels");
+  fs::create_directories(dir);
+  save_checkpoint((dir / "checkpoint.pt").string(), *plain, nullptr, CheckpointState{});
+  const InitReport report = init_from_checkpoint((dir / "checkpoint.pt").string(), *labelled, torch::kCPU);
+  EXPECT_EQ(report.grown.size(), 5u);
+  EXPECT_TRUE(report.missing.empty());
+  SampleRequest r;
+  r.control = torch::zeros({3, 12, 3});
+  r.prefix_pose = torch::randn({3, 6, c.pose_dim});
+  r.seed = 4;
+  const SampleOutput unlabelled = plain->sample(r);
+  SampleRequest with = r;
+  with.content = torch::tensor({0, 2, -1}, torch::kInt64);
+  with.style = torch::tensor({1, -1, 0}, torch::kInt64);
+  EXPECT_TRUE(torch::equal(labelled->sample(with).pose, unlabelled.pose));
+  // Once the label columns are trained (here: set), a label changes the motion and "none" (-1)
+  // equals no label at all.
+  {
+    torch::NoGradGuard no_grad;
+    for (const LabelInput& in : labelled->label_inputs())
+      params[in.parameter].narrow(in.axis, in.offset, 5).normal_(0, 1);
+  }
+  const SampleOutput conditioned = labelled->sample(with);
+  const SampleOutput none = labelled->sample(r);
+  EXPECT_FALSE(torch::equal(conditioned.pose.select(0, 0), none.pose.select(0, 0)));
+  SampleRequest all_none = r;
+  all_none.content = torch::full({3}, -1, torch::kInt64);
+  EXPECT_TRUE(torch::equal(labelled->sample(all_none).pose, none.pose));
+  // The dynamics loss takes the batch's labels (and drops some in training).
+  labelled->begin_stage(2, labelled->training_stages(TrainStageDefaults{})[2]);
+  Batch b = random_batch(c);
+  b.content = torch::tensor({0, 1, 2}, torch::kInt64);
+  b.style = torch::tensor({-1, 0, 1}, torch::kInt64);
+  EXPECT_TRUE(std::isfinite(labelled->loss(b).loss().item<double>()));
+  // A label outside the vocabulary is an error, not an index out of bounds.
+  SampleRequest bad = r;
+  bad.content = torch::tensor({0, 3, 1}, torch::kInt64);
+  EXPECT_THROW(labelled->sample(bad), Error);
+  fs::remove_all(dir);
+}
