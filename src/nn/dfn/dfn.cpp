@@ -289,11 +289,13 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     ps_mean.push_back(ps.mean);
     ps_logvar.push_back(ps.logvar);
     auto s_next = s, f_next = f;
-    if (options_.prior_rollout > 0) std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t, labels);
+    if (options_.prior_rollout > 0)
+      std::tie(s_next, f_next) = scheduled_latents(*dyn, options_.prior_rollout, s, f, pf, h_t, labels);
     state = dyn->step(state, s_next, f_next, labels);
   }
   LossTerms out;
-  auto rollout = options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, labels, out) : torch::zeros({}, opts);
+  auto rollout =
+      options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, labels, out) : torch::zeros({}, opts);
   auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
   if (max_delta >= 1) {
