@@ -284,13 +284,21 @@ void run_sample(const SampleArgs& a) {
 
 // A run directory without optimiser state: what ships under models/.
 void run_export(const std::string& run_dir, const std::string& out_dir, const std::string& checkpoint, bool overwrite,
-                bool half) {
+                bool half, const std::vector<std::string>& average) {
   namespace fs = std::filesystem;
   if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !overwrite)
     throw Error(out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
   nn::LoadOptions load;
   load.checkpoint = checkpoint;
   const nn::LoadedRun run = nn::load_run(run_dir, load);
+  // Stochastic weight averaging: the mean of --checkpoint's weights and each averaged file's, all
+  // loaded into this run's model (so of its family and config).
+  for (size_t k = 0; k < average.size(); ++k) {
+    nn::LoadOptions other_load;
+    other_load.checkpoint = fs::absolute(average[k]).string();
+    const nn::LoadedRun other = nn::load_run(run_dir, other_load);
+    nn::fold_into_mean(*run.trainable, *other.trainable, static_cast<int>(k) + 1);
+  }
   fs::create_directories(out_dir);
   for (const char* name : {"config.json", "stats.json", "log.jsonl"}) {
     const fs::path from = fs::path(run_dir) / name;
@@ -300,8 +308,10 @@ void run_export(const std::string& run_dir, const std::string& out_dir, const st
   state.step = run.step;
   if (half) nn::narrow_to_half(*run.trainable);
   nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.trainable, nullptr, state);
-  std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only%s)\n", run.step,
-               run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "");
+  const std::string averaged =
+      average.empty() ? "" : ", averaged with " + std::to_string(average.size()) + " more checkpoints";
+  std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only%s%s)\n", run.step,
+               run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "", averaged.c_str());
 }
 
 
@@ -394,6 +404,7 @@ void add_export_command(CLI::App& app, Action* action) {
     std::string run_dir, out_dir, checkpoint = "best.pt";
     bool overwrite = false;
     bool half = false;
+    std::vector<std::string> average;
   };
   auto e = std::make_shared<ExportArgs>();
   CLI::App* exp = app.add_subcommand(
@@ -403,8 +414,12 @@ void add_export_command(CLI::App& app, Action* action) {
   exp->add_option("--checkpoint", e->checkpoint, "checkpoint to export")->capture_default_str();
   exp->add_flag("--overwrite", e->overwrite, "replace the model files in an existing --out");
   exp->add_flag("--half", e->half, "store weights as float16 (half the size; computed in float32 when loaded)");
-  exp->callback(
-      [action, e] { *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite, e->half); }; });
+  exp->add_option("--average", e->average,
+                  "checkpoint files of this run's config whose weights are averaged with --checkpoint's "
+                  "(stochastic weight averaging)");
+  exp->callback([action, e] {
+    *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite, e->half, e->average); };
+  });
 }
 
 }  // namespace

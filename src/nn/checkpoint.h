@@ -67,6 +67,13 @@ struct InitLabels {
   LabelVocabularies stored, model;
 };
 
+// Weight averaging (stochastic weight averaging, Izmailov et al. 2018): folds `other` into the
+// running mean `mean` of n models already averaged (n >= 1), so that every floating-point parameter
+// and buffer becomes mean + (other - mean) / (n + 1), the average of all n + 1. Integer tensors keep
+// mean's values. Both models must be of one family and config. Throws mosyn::Error when their tensors
+// differ in names or shapes, or n < 1.
+void fold_into_mean(TrainableModel& mean, const TrainableModel& other, int n);
+
 // Warm start (mosyn train --init-from): copies a checkpoint's model tensors into a freshly built
 // model of the same family, tolerating architecture changes as InitReport describes. Optimiser
 // state and step are not taken. Throws mosyn::Error naming path when the file is missing,

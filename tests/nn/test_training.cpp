@@ -7,6 +7,7 @@
 #include <torch/utils.h>
 
 #include <array>
+#include <map>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -660,4 +661,30 @@ TEST(Training, ShortClipsAreNamedOrPaddedWithTheirLength) {
   EXPECT_FALSE(torch::equal(b.pose[1][2], b.pose[1][1]));
   EXPECT_EQ(b.content[1].item<int64_t>(), 1);
   fs::remove_all(dir);
+}
+
+TEST(Training, FoldIntoMeanAveragesEveryFloatingPointTensor) {
+  const ModelContext ctx = nn::testing::small_context(nn::testing::kDim, 3);
+  const nlohmann::json cfg = family_info("moglow").tiny_config;
+  torch::manual_seed(1);
+  auto a = create_model("moglow", cfg, ctx);
+  torch::manual_seed(2);
+  auto b = create_model("moglow", cfg, ctx);
+  torch::manual_seed(3);
+  auto c = create_model("moglow", cfg, ctx);
+  std::map<std::string, torch::Tensor> expected;
+  const auto pb = b->named_parameters(), pc = c->named_parameters();
+  for (const auto& p : a->named_parameters())
+    expected[p.key()] = (p.value() + pb[p.key()] + pc[p.key()]).detach() / 3.0;
+  fold_into_mean(*a, *b, 1);  // a = (a + b) / 2
+  fold_into_mean(*a, *c, 2);  // a = (a + b + c) / 3
+  ASSERT_FALSE(expected.empty());
+  for (const auto& p : a->named_parameters())
+    EXPECT_TRUE(torch::allclose(p.value(), expected.at(p.key()), 1e-5, 1e-6)) << p.key();
+  // Another config's tensors, or a count below one, are refused.
+  nlohmann::json other = cfg;
+  other["hidden"] = cfg.value("hidden", 8) + 1;
+  auto d = create_model("moglow", other, ctx);
+  EXPECT_THROW(fold_into_mean(*a, *d, 1), Error);
+  EXPECT_THROW(fold_into_mean(*a, *b, 0), Error);
 }
