@@ -131,6 +131,32 @@ TEST_F(CliModelTest, SampleErrors) {
   EXPECT_THAT(missing.err, HasSubstr("/nonexistent.csv"));
 }
 
+// `mosyn export`: weights only, the same motion as the run; --average of a checkpoint with itself
+// is that checkpoint; a missing averaged file names itself; an existing --out needs --overwrite.
+TEST_F(CliModelTest, ExportShipsTheSameModelAndAveragesCheckpoints) {
+  const std::string run = *root_ + "/run", e1 = *root_ + "/export1", e2 = *root_ + "/export2";
+  std::filesystem::remove_all(e1);
+  std::filesystem::remove_all(e2);
+  const auto r = run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + e1);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_LT(std::filesystem::file_size(e1 + "/checkpoint.pt"), std::filesystem::file_size(run + "/checkpoint.pt"));
+  const auto avg = run_mosyn("export " + run + " --checkpoint checkpoint.pt --average " + run +
+                             "/checkpoint.pt --out " + e2);
+  ASSERT_EQ(avg.exit_code, 0) << avg.err;
+  EXPECT_THAT(avg.err, HasSubstr("averaged with 1 more checkpoints"));
+  const std::string args = " --n 1 --path '0,0 0,2' --threads 1 --seconds 2 --seed 5";
+  for (const std::string& dir : {run, e1, e2})
+    ASSERT_EQ(run_mosyn("sample " + dir + " --out " + dir + "-s" + args).exit_code, 0) << dir;
+  const std::string original = slurp(run + "-s/sample_000.bvh");
+  EXPECT_EQ(slurp(e1 + "-s/sample_000.bvh"), original);
+  EXPECT_EQ(slurp(e2 + "-s/sample_000.bvh"), original);
+  const auto missing = run_mosyn("export " + run + " --checkpoint checkpoint.pt --average /nonexistent.pt --out " +
+                                 *root_ + "/export3");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr("/nonexistent.pt"));
+  EXPECT_EQ(run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + e1).exit_code, 1);
+}
+
 TEST_F(CliModelTest, TruncatedCheckpointIsAClearError) {
   const std::string run2 = *root_ + "/run_truncated";
   std::filesystem::remove_all(run2);
