@@ -271,21 +271,24 @@ void narrow_to_half(TrainableModel& model) {
 
 void fold_into_mean(TrainableModel& mean, const TrainableModel& other, int n) {
   if (n < 1) throw Error("fold_into_mean: n must be >= 1 (the models already averaged)");
-  torch::NoGradGuard no_grad;
-  auto fold = [n](const torch::OrderedDict<std::string, torch::Tensor>& into,
-                  const torch::OrderedDict<std::string, torch::Tensor>& from) {
+  using Tensors = torch::OrderedDict<std::string, torch::Tensor>;
+  const std::pair<Tensors, Tensors> pairs[] = {{mean.named_parameters(), other.named_parameters()},
+                                                {mean.named_buffers(), other.named_buffers()}};
+  // Every tensor is checked before any changes, so a refused model leaves `mean` as it was.
+  for (const auto& [into, from] : pairs) {
     if (into.size() != from.size()) throw Error("fold_into_mean: the models have different tensors");
     for (const auto& item : into) {
       const torch::Tensor* o = from.find(item.key());
       if (!o || !o->sizes().equals(item.value().sizes()))
         throw Error("fold_into_mean: tensor " + item.key() + " differs in name or shape between the models");
-      torch::Tensor t = item.value();
-      if (!t.is_floating_point()) continue;
-      t.add_((o->to(t.dtype()) - t) / static_cast<double>(n + 1));
     }
-  };
-  fold(mean.named_parameters(), other.named_parameters());
-  fold(mean.named_buffers(), other.named_buffers());
+  }
+  torch::NoGradGuard no_grad;
+  for (const auto& [into, from] : pairs)
+    for (const auto& item : into) {
+      torch::Tensor t = item.value();
+      if (t.is_floating_point()) t.add_((from[item.key()].to(t.dtype()) - t) / static_cast<double>(n + 1));
+    }
 }
 
 LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
