@@ -24,15 +24,15 @@ DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
 }
 
 std::vector<LabelInput> DfnImpl::label_inputs() const {
-  if (dyn->label_dim() == 0) return {};
-  const int64_t h = options_.state, f = options_.future_latent, s = options_.current_latent, m = options_.future,
-                z = options_.code;
+  const int64_t c = dyn->label_dim();
+  if (c == 0) return {};
   // Each labelled input ends with the label block (DfnDynamicsImpl::with_labels).
-  return {{"dyn.gru1.weight_ih", 1, s + f},
-          {"dyn.prior_f.0.weight", 1, h},
-          {"dyn.post_f.0.weight", 1, h + m},
-          {"dyn.prior_s.0.weight", 1, m + h},
-          {"dyn.post_s.0.weight", 1, h + z + m}};
+  const auto params = named_parameters();
+  std::vector<LabelInput> out;
+  for (const char* name : {"dyn.gru1.weight_ih", "dyn.prior_f.0.weight", "dyn.post_f.0.weight",
+                           "dyn.prior_s.0.weight", "dyn.post_s.0.weight"})
+    out.push_back({name, 1, params[name].size(1) - c});
+  return out;
 }
 
 torch::Tensor DfnImpl::labels_of(const torch::Tensor& content, const torch::Tensor& style, int64_t batch,

@@ -85,10 +85,11 @@ struct DfnOptions {
   // posterior pass over a training window the model generates rollout_frames more frames from its
   // priors, exactly as step_stream does (reparameterised draws), and the loss adds
   // rollout_speed_weight * [(log(root + e) - log(root* + e))^2 + (log(body + e) - log(body* + e))^2]
-  // per window (each ratio counted only beyond rollout_speed_tolerance, below), where root / body are the rollout's mean root and body speed (m/s; window_speeds)
-  // and root* / body* the real window's, e = kRolloutSpeedFloorMps. It matches a moment of the
-  // motion, not poses, so it does not pull generations to the mean pose; against the slow-down of
-  // open-loop walks and runs as the teacher-forced fit sharpens (models/dfn-bandai/README.md).
+  // per window (each ratio counted only beyond rollout_speed_tolerance, below), where root / body
+  // are the rollout's mean root and body speed (m/s; window_speeds) and root* / body* the real
+  // window's, e = kRolloutSpeedFloorMps. It matches a moment of the motion, not poses, so it does
+  // not pull generations to the mean pose; against the slow-down of open-loop walks and runs as the
+  // teacher-forced fit sharpens (models/dfn-bandai/README.md).
   // 0 = off (the paper).
   double rollout_speed_weight = 0.0;
   int rollout_frames = 30;
