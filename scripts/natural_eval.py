@@ -9,7 +9,7 @@ generated/real ratios. Two settings, as issue "natural motion" asks:
      0.8-1.8 m/s), against the same real clips.
 
     scripts/natural_eval.py RUN DATASET --out DIR [--contents walk] [--n 2] [--max-clips 30]
-        [--mosyn build/mosyn] [--style S] [--temperature T] [--foot-lock] [--json OUT.json]
+        [--mosyn build/mosyn] [--style S] [--temperature T] [--warmup S] [--foot-lock] [--json OUT.json]
 
 Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure.
 """
@@ -78,13 +78,14 @@ def main():
     ap.add_argument("--json", default="")
     ap.add_argument("--threads", default="1")
     ap.add_argument("--temperature", default="1")
+    ap.add_argument("--warmup", default="", help="seconds of lead-in (mosyn sample --warmup); default the family's")
     a = ap.parse_args()
     info, clips = val_clips(a.dataset, a.contents.split(","))
     if a.max_clips and len(clips) > a.max_clips:
         clips = [clips[i * len(clips) // a.max_clips] for i in range(a.max_clips)]
     source_dir = info["source_dirs"][0] if info.get("source_dirs") else info["source_dir"]
     real = [os.path.join(source_dir, c[1]) for c in clips]
-    extra = ["--temperature", a.temperature] + (["--style", a.style] if a.style else []) + (["--foot-lock"] if a.foot_lock else [])
+    extra = ["--temperature", a.temperature] + (["--style", a.style] if a.style else []) + (["--foot-lock"] if a.foot_lock else []) + (["--warmup", a.warmup] if a.warmup else [])
     results = {}
     gen = []
     for idx, source, content in clips:

@@ -21,7 +21,7 @@ struct EvalOptions {
   std::uint64_t seed = 1;        // clip i is sampled with seed + i (prediction: seed + 1000003 + i)
   int max_clips = 0;             // at most this many clips (evenly spread over the split); 0 = all
   double temperature = 1.0;      // latent standard-deviation multiplier
-  double warmup_s = -1.0;        // synthesis: standing generated first and dropped (nn SampleExtras);
+  double warmup_s = -1.0;        // synthesis: a lead-in generated first and dropped (nn SampleExtras);
                                  // < 0 = the family's default_warmup_s() (MoGlow 1 s, rvae 0)
   bool include_augmented = false;  // also evaluate mirrored / reversed / retimed copies in the split
   // Give a label-conditioned model each held-out clip's own content and style (true), or no label

@@ -33,7 +33,8 @@ struct SampleJobOptions {
   int observed_frames = -1;          // with continue_file: frames observed (overrides observed_s when >= 1)
   double seconds = 0;                // duration: cuts or extends (standing) the control; 0 = the control's own
   std::string content, style;        // label names from the run's vocabularies ("" = none)
-  double warmup_s = -1;              // standing generated first and dropped; < 0 = the family's default
+  double warmup_s = -1;              // generated first along the control's first step and dropped
+                                     // (SampleExtras::warmup_frames); < 0 = the family's default
   int n = 4;                         // motions
   std::uint64_t seed = 0;
   double temperature = 1.0;

@@ -68,6 +68,18 @@ void fill_request(SampleRequest& req, const LoadedRun& run, const Standardiser& 
   req.batch = static_cast<int>(b);
 }
 
+// control [T, C] raw, preceded by w rows of its first step (row 1; zeros when T < 2): the
+// warm-up of SampleExtras::warmup_frames.
+std::vector<float> with_lead_in(const std::vector<float>& control, int64_t c, int64_t w) {
+  std::vector<float> first_step(static_cast<size_t>(c), 0.0f);
+  if (static_cast<int64_t>(control.size()) >= 2 * c) first_step.assign(control.begin() + c, control.begin() + 2 * c);
+  std::vector<float> out;
+  out.reserve(static_cast<size_t>(w * c) + control.size());
+  for (int64_t k = 0; k < w; ++k) out.insert(out.end(), first_step.begin(), first_step.end());
+  out.insert(out.end(), control.begin(), control.end());
+  return out;
+}
+
 }  // namespace
 
 std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
@@ -86,8 +98,7 @@ std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vecto
   if (w == kFamilyWarmup) w = std::lround(run.traits.default_warmup_s * run.dataset.fps);
   // The real prefix is the start; a family that makes its own root motion cannot be told to stand.
   if (!extras.prefix_pose.empty() || run.traits.control != InputUse::kTakes) w = 0;
-  std::vector<float> full_control(static_cast<size_t>(w * c), 0.0f);
-  full_control.insert(full_control.end(), control.begin(), control.end());
+  std::vector<float> full_control = with_lead_in(control, c, w);
   Standardiser st(run.stats);
   auto& model = *run.model;
   const auto device = model_device(model);

@@ -20,11 +20,15 @@ struct SampleExtras {
   std::vector<float> prefix_control;  // optional raw [P, C] (empty = mean control)
   int content = -1;                   // label ids, -1 = none
   int style = -1;
-  // Frames of standing (all-zero raw control) generated before the requested control and then
-  // dropped. Without a prefix a model starts from its initial state (MoGlow: the mean pose as
-  // history), which shows as an unnatural first frame; warming up lets it settle into a
-  // natural standing pose first. 0 = none; kFamilyWarmup = the family's default. Not used with a
-  // prefix: real motion already gives the model its start.
+  // Frames generated before the requested control and then dropped, along a lead-in that holds
+  // the control's first step (its row 1; row 0 is the zero delta into the first frame). Without a
+  // prefix a model starts from its initial state (MoGlow: the mean pose as history), which shows
+  // as an unnatural first frame; the lead-in lets it settle first into what the control starts
+  // with: standing for a drawn path (it starts at rest), walking at the clip's speed for a
+  // motion-capture control that starts mid-walk. A standing lead-in there made the first two
+  // seconds glide from a standstill to full speed (the MoGlow paper pre-generates a second of
+  // preceding motion for the same reason, Sec. 5). 0 = none; kFamilyWarmup = the family's
+  // default. Not used with a prefix: real motion already gives the model its start.
   int warmup_frames = 0;
 };
 

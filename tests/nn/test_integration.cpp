@@ -65,6 +65,24 @@ TEST(Integration, TrainSampleDecodeFromPreparedDataset) {
   nn::write_motion_bvh(bvh, run, poses[1]);
   EXPECT_EQ(io::to_clip(io::read_bvh(bvh)).motion.num_frames, t);
 
+  // The warm-up is a lead-in along the control's first step (row 1), dropped: the same frames as
+  // sampling that lead-in and the control without a warm-up and cutting the lead-in off, and not
+  // those of a standing lead-in (the walk starts at 1.2 m/s).
+  const int w = 5;
+  nn::SampleExtras lead;
+  lead.warmup_frames = w;
+  const auto warmed = nn::sample_motions(run, control, 1, 3, 1.0, lead);
+  const auto sample_after = [&](const std::vector<float>& lead_row) {
+    std::vector<float> full;
+    for (int f = 0; f < w; ++f) full.insert(full.end(), lead_row.begin(), lead_row.end());
+    full.insert(full.end(), control.begin(), control.end());
+    auto p = nn::sample_motions(run, full, 1, 3, 1.0, nn::SampleExtras{}).front().pose;
+    return std::vector<float>(p.end() - warmed[0].pose.size(), p.end());
+  };
+  ASSERT_EQ(warmed[0].pose.size(), static_cast<size_t>(t) * run.context.pose_dim);
+  EXPECT_EQ(warmed[0].pose, sample_after({control[3], control[4], control[5]}));
+  EXPECT_NE(warmed[0].pose, sample_after({0.0f, 0.0f, 0.0f}));
+
   nn::GeneratorOptions go;
   go.threads = 1;
   nn::Generator gen(o.out_dir, go);
