@@ -9,7 +9,7 @@ generated/real ratios. Two settings, as issue "natural motion" asks:
      0.8-1.8 m/s), against the same real clips.
 
     scripts/natural_eval.py RUN DATASET --out DIR [--contents walk] [--n 2] [--max-clips 30]
-        [--mosyn build/mosyn] [--style S] [--temperature T] [--warmup S] [--foot-lock] [--json OUT.json]
+        [--mosyn build/mosyn] [--style S] [--temperature T] [--warmup S] [--seed K] [--foot-lock] [--json OUT.json]
 
 Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure.
 """
@@ -78,6 +78,7 @@ def main():
     ap.add_argument("--json", default="")
     ap.add_argument("--threads", default="1")
     ap.add_argument("--temperature", default="1")
+    ap.add_argument("--seed", type=int, default=0, help="added to every sample's seed (0: the seeds of earlier reports)")
     ap.add_argument("--warmup", default="", help="seconds of lead-in (mosyn sample --warmup); default the family's")
     a = ap.parse_args()
     info, clips = val_clips(a.dataset, a.contents.split(","))
@@ -91,7 +92,7 @@ def main():
     for idx, source, content in clips:
         d = os.path.join(a.out, "val")
         label = ["--content", content] if takes_labels(a.run) else []
-        run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx), "--data", a.dataset,
+        run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx + a.seed), "--data", a.dataset,
              "--clip", str(idx), "--prefix", f"clip{idx:04d}", "--threads", a.threads] + label + extra)
         gen += [os.path.join(d, f"clip{idx:04d}_{k:03d}.bvh") for k in range(a.n)]
     results["validation controls"] = check(gen, real)
@@ -99,7 +100,7 @@ def main():
     for name, (path, speed) in PATHS.items():
         d = os.path.join(a.out, name)
         label = ["--content", "walk"] if takes_labels(a.run) else []
-        run([a.mosyn, "sample", a.run, "--out", d, "--n", "4", "--seed", "7", "--path", path, "--speed", str(speed),
+        run([a.mosyn, "sample", a.run, "--out", d, "--n", "4", "--seed", str(7 + a.seed), "--path", path, "--speed", str(speed),
              "--prefix", name, "--threads", a.threads] + label + extra)
         files = [os.path.join(d, f"{name}_{k:03d}.bvh") for k in range(4)]
         all_paths += files
