@@ -48,7 +48,7 @@ struct EvalOptions {
   // "foot_locked.<key>" beside the raw ones, which stay what the model makes.
   bool foot_lock = false;
   // Also sample every synthetic path of eval/path_protocol.h (num_samples each) and score them
-  // against the real clips: rows "paths.<key>".
+  // against the held-out walk clips (every held-out clip when none walks): rows "paths.<key>".
   bool synthetic_paths = false;
   // Long-horizon stability (eval/protocol.h, "long_horizon"): N samples of this many seconds (a
   // meandering walk at 1.3 m/s for families that take control, free generation otherwise), scored
