@@ -43,6 +43,14 @@ torch::Tensor PlantedHeelTerm::mean_planted_speed(const torch::Tensor& made, con
   return (made_mps * planted).sum() / planted.sum().clamp_min(1.0);
 }
 
+torch::Tensor PlantedHeelTerm::mean_lingering_speed(const torch::Tensor& made, const torch::Tensor& real,
+                                                    const torch::Tensor& control, const torch::Tensor& valid) const {
+  const auto [made_mps, real_mps] = heel_speeds_mps(made, real, control);  // [B, T-1, 2]
+  auto lifted = (real_mps >= kPlantedMps).to(made_mps.dtype());
+  if (valid.defined()) lifted = lifted * valid.to(made.options()).unsqueeze(-1);
+  return (torch::relu(kPlantedMps - made_mps) * lifted).sum() / lifted.sum().clamp_min(1.0);
+}
+
 torch::Tensor PlantedHeelTerm::mean_speed_error(const torch::Tensor& made, const torch::Tensor& real,
                                                 const torch::Tensor& control, const torch::Tensor& valid) const {
   const auto [made_mps, real_mps] = heel_speeds_mps(made, real, control);  // [B, T-1, 2]

@@ -41,6 +41,14 @@ class PlantedHeelTerm {
   torch::Tensor mean_speed_error(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
                                  const torch::Tensor& valid = {}) const;
 
+  // Mean of max(0, kPlantedMps - made heel speed) over the (heel, step) pairs where the real heel
+  // has lifted (moves at kPlantedMps or faster): how far below the planted threshold a made heel
+  // lingers where the data's has left the ground (valid as above). The complement of
+  // mean_planted_speed: together they charge a contact that starts late or ends late on either
+  // side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
+  torch::Tensor mean_lingering_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
+                                     const torch::Tensor& valid = {}) const;
+
   const std::vector<int>& heels() const { return heels_; }
 
  private:

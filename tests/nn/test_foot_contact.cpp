@@ -72,3 +72,38 @@ TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
   EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
   EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);  // further along: faster
 }
+
+// The lingering-heel term (mean_lingering_speed) by hand: where the data's heel has lifted (0.3
+// m/s), a made heel that stays put costs the planted threshold, 0.15 m/s; one at 0.06 m/s costs
+// 0.09; one as fast as the threshold or the data's costs nothing, nor does anything where the
+// data's heel is planted.
+TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch still = nn::testing::standing_batch(s, ctx, frames);
+  const PlantedHeelTerm term(ctx, "test");
+  const int64_t left_x = 3 * s.find("Foot_L");
+  const auto heel_at = [&](double metres_per_frame) {  // the left heel moving over the steps into frames 10..19
+    auto pose = still.pose.clone();
+    for (int t = frames / 2; t < frames; ++t) pose[0][t][left_x] += metres_per_frame * (t - frames / 2 + 1);
+    return pose;
+  };
+  const auto lifted = heel_at(0.01);  // 0.3 m/s at 30 fps
+  const double threshold = PlantedHeelTerm::kPlantedMps;
+  EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control).item<double>(), threshold, 1e-4);
+  EXPECT_NEAR(term.mean_lingering_speed(heel_at(0.002), lifted, still.control).item<double>(), threshold - 0.06, 1e-4);
+  EXPECT_NEAR(term.mean_lingering_speed(heel_at(0.005), lifted, still.control).item<double>(), 0.0, 1e-4);
+  EXPECT_NEAR(term.mean_lingering_speed(lifted, lifted, still.control).item<double>(), 0.0, 1e-4);
+  // Nothing lifted: 0, however the made heel moves (that is the planted term's part).
+  EXPECT_NEAR(term.mean_lingering_speed(lifted, still.pose, still.control).item<double>(), 0.0, 1e-6);
+  // The valid mask: only the steps into the first half count, where nothing has lifted.
+  auto first_half = torch::zeros({1, frames - 1});
+  first_half.narrow(1, 0, frames / 2 - 1).fill_(1.0);
+  EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control, first_half).item<double>(), 0.0, 1e-6);
+  // The gradient speeds a lingering heel up.
+  auto made_var = heel_at(0.002).requires_grad_(true);
+  term.mean_lingering_speed(made_var, lifted, still.control).backward();
+  EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
+  EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);
+}

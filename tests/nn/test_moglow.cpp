@@ -573,6 +573,23 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   EXPECT_NEAR(train_terms.loss().item<double>(),
               eval_terms.loss().item<double>() + 1.0 * eval_terms.terms.at("planted_heel_mps").item<double>() + 0.5 * error,
               1e-6);
+
+  // The lingering-heel term on the same draws: standing data's heels never lift, so it is 0, is
+  // logged, and training adds weight x term.
+  cfg["lift_off_weight"] = 0.25;
+  both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  both->to(torch::kFloat64);
+  torch::manual_seed(1);
+  randomise(*both);
+  const LossTerms eval_all = loss_in(false), train_all = loss_in(true);
+  EXPECT_NEAR(eval_all.terms.at("lingering_heel_mps").item<double>(), 0.0, 1e-12);
+  EXPECT_NEAR(train_all.loss().item<double>(),
+              eval_all.loss().item<double>() + 1.0 * eval_all.terms.at("planted_heel_mps").item<double>() +
+                  0.5 * eval_all.terms.at("heel_speed_error_mps").item<double>(),
+              1e-6);
+  cfg["lift_off_weight"] = -1.0;
+  EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
+  cfg["lift_off_weight"] = 0.0;
   cfg["heel_speed_weight"] = -1.0;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
 }

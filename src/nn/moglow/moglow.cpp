@@ -84,6 +84,10 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
                  "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
                  at_least(0.0))
           .written_if([](const O& o) { return o.heel_speed_weight > 0; })
+          .field("lift_off_weight", &O::lift_off_weight,
+                 "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
+                 at_least(0.0))
+          .written_if([](const O& o) { return o.lift_off_weight > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -417,6 +421,8 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   out.planted_mps = planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs, valid_pairs);
   if (options_.heel_speed_weight > 0)
     out.speed_error_mps = planted_heels_.mean_speed_error(made_pairs, real_pairs, control_pairs, valid_pairs);
+  if (options_.lift_off_weight > 0)
+    out.lingering_mps = planted_heels_.mean_lingering_speed(made_pairs, real_pairs, control_pairs, valid_pairs);
   return out;
 }
 
@@ -472,6 +478,10 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     if (heels.speed_error_mps.defined()) {
       added = added + options_.heel_speed_weight * heels.speed_error_mps;
       out.terms["heel_speed_error_mps"] = heels.speed_error_mps.detach();
+    }
+    if (heels.lingering_mps.defined()) {
+      added = added + options_.lift_off_weight * heels.lingering_mps;
+      out.terms["lingering_heel_mps"] = heels.lingering_mps.detach();
     }
     if (is_training()) out.terms["loss"] = out.terms["loss"] + added;
     out.terms["planted_heel_mps"] = heels.planted_mps.detach();

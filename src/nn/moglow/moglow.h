@@ -78,8 +78,14 @@ struct MoGlowOptions {
   // lingers slow into the data's swing (contacts too long, the independent check's steps 1.5x
   // real) costs it nothing, and this term charges both. 0 = off. Logged as heel_speed_error_mps.
   double heel_speed_weight = 0.0;
-  // Whether training draws frames for the heel terms (either weight above is on).
-  bool heel_terms_on() const { return foot_contact_weight > 0 || heel_speed_weight > 0; }
+  // Training only, positions form: weight of the lingering-heel term on the same draws
+  // (PlantedHeelTerm::mean_lingering_speed: how far below 0.15 m/s a made heel stays where the
+  // data's has lifted), the planted-heel term's complement. With the planted term alone the heels
+  // plant but stay slow too long (contacts at 15 cm/s 0.40 s in walks against the takes' 0.32);
+  // the speed error above also charges every swing. 0 = off. Logged as lingering_heel_mps.
+  double lift_off_weight = 0.0;
+  // Whether training draws frames for the heel terms (any weight above is on).
+  bool heel_terms_on() const { return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0; }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -263,7 +269,7 @@ class MoGlowImpl : public MotionModel {
   // when its weight is 0). seen = the poses conditioned on [B, T, D], e the window's encoding,
   // valid [B, T'] (undefined = all frames).
   struct HeelTerms {
-    torch::Tensor planted_mps, speed_error_mps;
+    torch::Tensor planted_mps, speed_error_mps, lingering_mps;  // the last undefined when lift_off_weight is 0
   };
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
