@@ -96,7 +96,7 @@ std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vecto
   const int64_t t = static_cast<int64_t>(control.size()) / c;
   int64_t w = extras.warmup_frames;
   if (w == kFamilyWarmup) w = std::lround(run.traits.default_warmup_s * run.dataset.fps);
-  // The real prefix is the start; a family that makes its own root motion cannot be told to stand.
+  // The real prefix is the start; a family that makes its own root motion takes no control lead-in.
   if (!extras.prefix_pose.empty() || run.traits.control != InputUse::kTakes) w = 0;
   std::vector<float> full_control = with_lead_in(control, c, w);
   Standardiser st(run.stats);
