@@ -8,7 +8,7 @@ namespace mosyn::nn {
 
 PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family) : fps_(context.fps) {
   const Skeleton& skeleton = context.skeleton;
-  const std::string who = family + ": a heel term (foot_contact_weight, heel_speed_weight) needs ";
+  const std::string who = family + ": a heel term (foot_contact_weight, heel_speed_weight, lift_off_weight) needs ";
   if (context.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context.pose_dim)
     throw Error(who + "the positions form with the dataset's skeleton (a model built by mosyn train or load_run)");
   const auto& st = context.stats;
@@ -24,9 +24,8 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
   control_std_ = torch::tensor(st.control_std);
 }
 
-std::pair<torch::Tensor, torch::Tensor> PlantedHeelTerm::heel_speeds_mps(const torch::Tensor& made,
-                                                                         const torch::Tensor& real,
-                                                                         const torch::Tensor& control) const {
+PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, const torch::Tensor& real,
+                                                   const torch::Tensor& control) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
   const auto opts = made.options();
   const auto pm = pose_mean_.to(opts), ps = pose_std_.to(opts);
@@ -35,28 +34,27 @@ std::pair<torch::Tensor, torch::Tensor> PlantedHeelTerm::heel_speeds_mps(const t
           joint_ground_speed_mps(real.to(opts) * ps + pm, ctrl, heels_, fps_)};
 }
 
-torch::Tensor PlantedHeelTerm::mean_planted_speed(const torch::Tensor& made, const torch::Tensor& real,
-                                                  const torch::Tensor& control, const torch::Tensor& valid) const {
-  const auto [made_mps, real_mps] = heel_speeds_mps(made, real, control);  // [B, T-1, 2]
-  auto planted = (real_mps < kPlantedMps).to(made_mps.dtype());
-  if (valid.defined()) planted = planted * valid.to(made.options()).unsqueeze(-1);
-  return (made_mps * planted).sum() / planted.sum().clamp_min(1.0);
+namespace {
+
+// Mean of value [B, T-1, 2] over the pairs where `counted` (0/1, same shape) is 1 and valid
+// ([B, T-1], optional) allows; 0 when none is.
+torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const torch::Tensor& valid) {
+  if (valid.defined()) counted = counted * valid.to(value.options()).unsqueeze(-1);
+  return (value * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
-torch::Tensor PlantedHeelTerm::mean_lingering_speed(const torch::Tensor& made, const torch::Tensor& real,
-                                                    const torch::Tensor& control, const torch::Tensor& valid) const {
-  const auto [made_mps, real_mps] = heel_speeds_mps(made, real, control);  // [B, T-1, 2]
-  auto lifted = (real_mps >= kPlantedMps).to(made_mps.dtype());
-  if (valid.defined()) lifted = lifted * valid.to(made.options()).unsqueeze(-1);
-  return (torch::relu(kPlantedMps - made_mps) * lifted).sum() / lifted.sum().clamp_min(1.0);
+}  // namespace
+
+torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
+  return mean_over(s.made_mps, (s.real_mps < kPlantedMps).to(s.made_mps.dtype()), valid);
 }
 
-torch::Tensor PlantedHeelTerm::mean_speed_error(const torch::Tensor& made, const torch::Tensor& real,
-                                                const torch::Tensor& control, const torch::Tensor& valid) const {
-  const auto [made_mps, real_mps] = heel_speeds_mps(made, real, control);  // [B, T-1, 2]
-  auto counted = torch::ones_like(made_mps);
-  if (valid.defined()) counted = counted * valid.to(made.options()).unsqueeze(-1);
-  return ((made_mps - real_mps).abs() * counted).sum() / counted.sum().clamp_min(1.0);
+torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
+  return mean_over(torch::relu(kPlantedMps - s.made_mps), (s.real_mps >= kPlantedMps).to(s.made_mps.dtype()), valid);
+}
+
+torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {
+  return mean_over((s.made_mps - s.real_mps).abs(), torch::ones_like(s.made_mps), valid);
 }
 
 }  // namespace mosyn::nn

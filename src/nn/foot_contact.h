@@ -26,36 +26,52 @@ class PlantedHeelTerm {
   // Throws mosyn::Error when the context cannot give them.
   PlantedHeelTerm(const ModelContext& context, const std::string& family);
 
+  // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
+  // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
+  // frame t is the root's step into it). Computed once, they serve every term below.
+  struct HeelSpeeds {
+    torch::Tensor made_mps, real_mps;
+  };
+  HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const;
+
+  // Each term below takes the speeds above, or made, real and control to compute them; valid
+  // (optional [B, T-1], 0/1) leaves out steps into padded frames.
+
   // Mean horizontal speed (m/s) of the made heels from frame t-1 to t over the (heel, frame) pairs
   // where the real heel is planted, t = 1..T-1. made, real [B, T, D] and control [B, T, C]
   // standardised (the control of frame t is the root's step into it); valid (optional [B, T-1],
   // 0/1) leaves out steps into padded frames. A scalar, differentiable in made; 0 when nothing is
   // planted.
+  torch::Tensor mean_planted_speed(const HeelSpeeds& speeds, const torch::Tensor& valid = {}) const;
   torch::Tensor mean_planted_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
-                                   const torch::Tensor& valid = {}) const;
+                                   const torch::Tensor& valid = {}) const {
+    return mean_planted_speed(speeds(made, real, control), valid);
+  }
 
   // Mean absolute difference (m/s) between the made and the real heels' horizontal speeds from
   // frame t-1 to t, over every (heel, step) pair (valid as above). Where the real heel is planted
   // it is the made heel's glide, as mean_planted_speed; where the real heel swings it also charges
   // a made heel that lingers slow around the contact. A scalar, differentiable in made.
+  torch::Tensor mean_speed_error(const HeelSpeeds& speeds, const torch::Tensor& valid = {}) const;
   torch::Tensor mean_speed_error(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
-                                 const torch::Tensor& valid = {}) const;
+                                 const torch::Tensor& valid = {}) const {
+    return mean_speed_error(speeds(made, real, control), valid);
+  }
 
   // Mean of max(0, kPlantedMps - made heel speed) over the (heel, step) pairs where the real heel
   // has lifted (moves at kPlantedMps or faster): how far below the planted threshold a made heel
   // lingers where the data's has left the ground (valid as above). The complement of
   // mean_planted_speed: together they charge a contact that starts late or ends late on either
   // side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
+  torch::Tensor mean_lingering_speed(const HeelSpeeds& speeds, const torch::Tensor& valid = {}) const;
   torch::Tensor mean_lingering_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
-                                     const torch::Tensor& valid = {}) const;
+                                     const torch::Tensor& valid = {}) const {
+    return mean_lingering_speed(speeds(made, real, control), valid);
+  }
 
   const std::vector<int>& heels() const { return heels_; }
 
  private:
-  // Horizontal speeds (m/s) of the made and real heels over the steps [B, T-1, 2].
-  std::pair<torch::Tensor, torch::Tensor> heel_speeds_mps(const torch::Tensor& made, const torch::Tensor& real,
-                                                          const torch::Tensor& control) const;
-
   std::vector<int> heels_;
   double fps_ = 30.0;
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]

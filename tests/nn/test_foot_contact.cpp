@@ -10,6 +10,19 @@
 using namespace mosyn;
 using namespace mosyn::nn;
 
+namespace {
+
+// The pose of `still` [1, T, D] with the left heel moved sideways (x) by metres_per_frame a frame
+// over the second half: at 30 fps 0.01 m a frame is 0.3 m/s on the steps into frames T/2..T-1.
+torch::Tensor left_heel_moving(const Batch& still, const Skeleton& s, double metres_per_frame) {
+  const int64_t frames = still.pose.size(1), left_x = 3 * s.find("Foot_L");
+  auto pose = still.pose.clone();
+  for (int64_t t = frames / 2; t < frames; ++t) pose[0][t][left_x] += metres_per_frame * (t - frames / 2 + 1);
+  return pose;
+}
+
+}  // namespace
+
 TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
@@ -19,8 +32,7 @@ TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
   ASSERT_EQ(term.heels().size(), 2u);
   const int64_t left_x = 3 * s.find("Foot_L");  // sideways (x) feature of the left ankle
   // The left heel slides 1 cm sideways per frame over the second half; the right stays put.
-  auto made = real.pose.clone();
-  for (int t = frames / 2; t < frames; ++t) made[0][t][left_x] += 0.01 * (t - frames / 2 + 1);
+  const auto made = left_heel_moving(real, s, 0.01);
   // Steps into frames 10..19 (indices 9..18 of 19): the left heel at 0.3 m/s, over 19 x 2 planted.
   const double expected = 10 * 0.3 / (19 * 2);
   EXPECT_NEAR(term.mean_planted_speed(made, real.pose, real.control).item<double>(), expected, 1e-4);
@@ -51,8 +63,7 @@ TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
   const Batch still = nn::testing::standing_batch(s, ctx, frames);
   const PlantedHeelTerm term(ctx, "test");
   const int64_t left_x = 3 * s.find("Foot_L");
-  auto moving = still.pose.clone();  // the left heel at 0.3 m/s over the steps into frames 10..19
-  for (int t = frames / 2; t < frames; ++t) moving[0][t][left_x] += 0.01 * (t - frames / 2 + 1);
+  const auto moving = left_heel_moving(still, s, 0.01);  // the left heel at 0.3 m/s over the steps into frames 10..19
   const double expected = 10 * 0.3 / (19 * 2);
   EXPECT_NEAR(term.mean_speed_error(moving, still.pose, still.control).item<double>(), expected, 1e-4);
   // The made heel lingers where the data's swings: the planted term sees nothing, this does.
@@ -64,8 +75,7 @@ TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
   first_half.narrow(1, 0, frames / 2 - 1).fill_(1.0);
   EXPECT_NEAR(term.mean_speed_error(still.pose, moving, still.control, first_half).item<double>(), 0.0, 1e-4);
   // A heel at half the data's speed: half the error, and the gradient speeds it up.
-  auto slow = still.pose.clone();
-  for (int t = frames / 2; t < frames; ++t) slow[0][t][left_x] += 0.005 * (t - frames / 2 + 1);
+  const auto slow = left_heel_moving(still, s, 0.005);
   EXPECT_NEAR(term.mean_speed_error(slow, moving, still.control).item<double>(), expected / 2, 1e-4);
   auto made_var = slow.clone().requires_grad_(true);
   term.mean_speed_error(made_var, moving, still.control).backward();
@@ -84,16 +94,11 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   const Batch still = nn::testing::standing_batch(s, ctx, frames);
   const PlantedHeelTerm term(ctx, "test");
   const int64_t left_x = 3 * s.find("Foot_L");
-  const auto heel_at = [&](double metres_per_frame) {  // the left heel moving over the steps into frames 10..19
-    auto pose = still.pose.clone();
-    for (int t = frames / 2; t < frames; ++t) pose[0][t][left_x] += metres_per_frame * (t - frames / 2 + 1);
-    return pose;
-  };
-  const auto lifted = heel_at(0.01);  // 0.3 m/s at 30 fps
+  const auto lifted = left_heel_moving(still, s, 0.01);  // 0.3 m/s at 30 fps
   const double threshold = PlantedHeelTerm::kPlantedMps;
   EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control).item<double>(), threshold, 1e-4);
-  EXPECT_NEAR(term.mean_lingering_speed(heel_at(0.002), lifted, still.control).item<double>(), threshold - 0.06, 1e-4);
-  EXPECT_NEAR(term.mean_lingering_speed(heel_at(0.005), lifted, still.control).item<double>(), 0.0, 1e-4);
+  EXPECT_NEAR(term.mean_lingering_speed(left_heel_moving(still, s, 0.002), lifted, still.control).item<double>(), threshold - 0.06, 1e-4);
+  EXPECT_NEAR(term.mean_lingering_speed(left_heel_moving(still, s, 0.005), lifted, still.control).item<double>(), 0.0, 1e-4);
   EXPECT_NEAR(term.mean_lingering_speed(lifted, lifted, still.control).item<double>(), 0.0, 1e-4);
   // Nothing lifted: 0, however the made heel moves (that is the planted term's part).
   EXPECT_NEAR(term.mean_lingering_speed(lifted, still.pose, still.control).item<double>(), 0.0, 1e-6);
@@ -101,8 +106,16 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   auto first_half = torch::zeros({1, frames - 1});
   first_half.narrow(1, 0, frames / 2 - 1).fill_(1.0);
   EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control, first_half).item<double>(), 0.0, 1e-6);
+  // The speeds computed once give every term the same value as computing them per term.
+  const auto slow = left_heel_moving(still, s, 0.002);
+  const PlantedHeelTerm::HeelSpeeds speeds = term.speeds(slow, lifted, still.control);
+  EXPECT_EQ(term.mean_lingering_speed(speeds).item<double>(),
+            term.mean_lingering_speed(slow, lifted, still.control).item<double>());
+  EXPECT_EQ(term.mean_speed_error(speeds, first_half).item<double>(),
+            term.mean_speed_error(slow, lifted, still.control, first_half).item<double>());
+  EXPECT_EQ(term.mean_planted_speed(speeds).item<double>(), term.mean_planted_speed(slow, lifted, still.control).item<double>());
   // The gradient speeds a lingering heel up.
-  auto made_var = heel_at(0.002).requires_grad_(true);
+  auto made_var = slow.clone().requires_grad_(true);
   term.mean_lingering_speed(made_var, lifted, still.control).backward();
   EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
   EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);

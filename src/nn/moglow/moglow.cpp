@@ -417,12 +417,11 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
   const auto valid_pairs = valid.defined() ? valid.narrow(1, 0, n).reshape({-1, 1}) : valid;
+  const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
   HeelTerms out;
-  out.planted_mps = planted_heels_.mean_planted_speed(made_pairs, real_pairs, control_pairs, valid_pairs);
-  if (options_.heel_speed_weight > 0)
-    out.speed_error_mps = planted_heels_.mean_speed_error(made_pairs, real_pairs, control_pairs, valid_pairs);
-  if (options_.lift_off_weight > 0)
-    out.lingering_mps = planted_heels_.mean_lingering_speed(made_pairs, real_pairs, control_pairs, valid_pairs);
+  out.planted_mps = planted_heels_.mean_planted_speed(speeds, valid_pairs);
+  if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(speeds, valid_pairs);
+  if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(speeds, valid_pairs);
   return out;
 }
 

@@ -351,16 +351,19 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     total = total + options_.l1 * pen;
   }
   LossTerms out;
-  if (options_.foot_contact_weight > 0 && t >= 2) {
+  if ((options_.foot_contact_weight > 0 || options_.heel_speed_weight > 0) && t >= 2) {
     // Training only, so that the validation loss stays the ELBO, comparable across runs.
-    const auto planted = planted_heels_.mean_planted_speed(x_hat, pose, control);
-    if (is_training()) total = total + options_.foot_contact_weight * planted;
-    out.terms["planted_heel_mps"] = planted.detach();
-  }
-  if (options_.heel_speed_weight > 0 && t >= 2) {
-    const auto error = planted_heels_.mean_speed_error(x_hat, pose, control);
-    if (is_training()) total = total + options_.heel_speed_weight * error;
-    out.terms["heel_speed_error_mps"] = error.detach();
+    const auto speeds = planted_heels_.speeds(x_hat, pose, control);  // once for both terms
+    if (options_.foot_contact_weight > 0) {
+      const auto planted = planted_heels_.mean_planted_speed(speeds);
+      if (is_training()) total = total + options_.foot_contact_weight * planted;
+      out.terms["planted_heel_mps"] = planted.detach();
+    }
+    if (options_.heel_speed_weight > 0) {
+      const auto error = planted_heels_.mean_speed_error(speeds);
+      if (is_training()) total = total + options_.heel_speed_weight * error;
+      out.terms["heel_speed_error_mps"] = error.detach();
+    }
   }
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();
