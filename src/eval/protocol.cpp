@@ -53,6 +53,23 @@ const std::vector<MetricValue>& EvalContext::real_set_metrics() {
   return *real_rows_;
 }
 
+std::vector<size_t> EvalContext::clips_of_content(int content) const {
+  std::vector<size_t> out;
+  for (size_t i = 0; i < num_clips(); ++i)
+    if (clip(i).content == content) out.push_back(i);
+  return out;
+}
+
+const std::vector<MetricValue>& EvalContext::real_set_metrics(int content) {
+  auto it = real_rows_by_content_.find(content);
+  if (it == real_rows_by_content_.end()) {
+    std::vector<MotionPositions> real;
+    for (size_t i : clips_of_content(content)) real.push_back(real_[i]);
+    it = real_rows_by_content_.emplace(content, set_metrics(real, options_.metrics)).first;
+  }
+  return it->second;
+}
+
 nn::SampleExtras EvalContext::clip_labels(size_t i) const {
   nn::SampleExtras extras;
   if (run_.traits.labels && options_.clip_labels) {  // the clip's own labels, for a label-conditioned model

@@ -53,6 +53,10 @@ class EvalContext {
   const std::vector<MotionPositions>& real() const { return real_; }
   // set_metrics(real(), options.metrics), computed once.
   const std::vector<MetricValue>& real_set_metrics();
+  // The chosen clips (indices into real(), clip()) whose content label is `content` (the
+  // dataset's id), and set_metrics of their real motions alone, computed once per content.
+  std::vector<size_t> clips_of_content(int content) const;
+  const std::vector<MetricValue>& real_set_metrics(int content);
   // N samples along each clip's own control (and labels), seed options.seed + clip index: raw
   // [clips][N] and decoded world positions [clips][N] (on the root motion the model returned:
   // the given control, or the one it generated). Sampled once, on the first call of either.
@@ -85,6 +89,7 @@ class EvalContext {
   int warmup_frames_ = 0;
   std::vector<MotionPositions> real_;
   std::optional<std::vector<MetricValue>> real_rows_;
+  std::map<int, std::vector<MetricValue>> real_rows_by_content_;
   std::optional<std::vector<std::vector<nn::SampledMotion>>> motions_;
   std::vector<std::vector<MotionPositions>> samples_;
   std::optional<std::vector<std::vector<MotionPositions>>> locked_;

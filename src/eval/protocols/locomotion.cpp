@@ -44,15 +44,9 @@ void add_replicate_rows(EvalContext& ctx, const std::vector<std::vector<MotionPo
 void add_per_content_rows(EvalContext& ctx, EvalResult& result) {
   const auto& labels = ctx.info().content_labels;
   for (size_t c = 0; c < labels.size(); ++c) {
-    std::vector<size_t> clips;
-    std::vector<MotionPositions> real;
-    for (size_t i = 0; i < ctx.num_clips(); ++i)
-      if (ctx.clip(i).content == static_cast<int>(c)) {
-        clips.push_back(i);
-        real.push_back(ctx.real()[i]);
-      }
+    const std::vector<size_t> clips = ctx.clips_of_content(static_cast<int>(c));
     if (clips.empty()) continue;
-    add_replicate_rows(ctx, ctx.samples(), clips, set_metrics(real, ctx.options().metrics),
+    add_replicate_rows(ctx, ctx.samples(), clips, ctx.real_set_metrics(static_cast<int>(c)),
                        "locomotion." + labels[c] + ".", " (content " + labels[c] + ")", detail::is_footstep_row, result);
   }
 }

@@ -40,17 +40,26 @@ void steady_rows(const std::vector<MotionPositions>& along_paths, const std::vec
                 result);
 }
 
-// The real clips the paths are scored against: the held-out "walk" clips when the chosen clips
-// hold that content (the paths ask for walking; runs step with a far larger footstep tolerance and
-// skate less, so a pooled reference mixes gaits), else every chosen clip.
-std::vector<MotionPositions> reference_walks(const EvalContext& ctx) {
+// What the paths are scored against: the held-out "walk" clips when the chosen clips hold that
+// content (the paths ask for walking; runs step with a far larger footstep tolerance and skate
+// less, so a pooled reference mixes gaits), else every chosen clip. clips index ctx.real(); rows
+// are their set metrics, owned by ctx.
+struct Reference {
+  std::vector<size_t> clips;
+  const std::vector<MetricValue>* rows = nullptr;
+};
+
+Reference walk_reference(EvalContext& ctx) {
   const int walk = detail::label_index(ctx.info().content_labels, "walk");
-  std::vector<MotionPositions> walks, all;
-  for (size_t i = 0; i < ctx.num_clips() && i < ctx.real().size(); ++i) {
-    all.push_back(ctx.real()[i]);
-    if (walk >= 0 && ctx.clip(i).content == walk) walks.push_back(ctx.real()[i]);
+  Reference ref;
+  if (walk >= 0) ref.clips = ctx.clips_of_content(walk);
+  if (!ref.clips.empty()) {
+    ref.rows = &ctx.real_set_metrics(walk);
+    return ref;
   }
-  return walks.empty() ? all : walks;
+  for (size_t i = 0; i < ctx.num_clips(); ++i) ref.clips.push_back(i);
+  ref.rows = &ctx.real_set_metrics();
+  return ref;
 }
 
 double median_of(std::vector<double> v) {
@@ -64,7 +73,7 @@ double median_of(std::vector<double> v) {
 // (all in stride: there is no real standing to compare with). Shows where along a path feet
 // glide: on Bandai-Namco the models walk the steady parts and slide through starts and stops.
 void phase_rows(const std::vector<MotionPositions>& along_paths, const std::vector<std::vector<PathPhase>>& phases,
-                const std::vector<MotionPositions>& real_walks, EvalResult& result) {
+                const EvalContext& ctx, const std::vector<size_t>& reference, EvalResult& result) {
   std::vector<double> by_phase[3], real_speeds;
   for (size_t m = 0; m < along_paths.size() && m < phases.size(); ++m) {
     const std::vector<double> v = slower_foot_speed_mps(along_paths[m], find_foot_joints(along_paths[m]));
@@ -72,7 +81,8 @@ void phase_rows(const std::vector<MotionPositions>& along_paths, const std::vect
     for (size_t t = 0; t < v.size() && t + 1 < phases[m].size(); ++t)
       by_phase[static_cast<int>(phases[m][t + 1])].push_back(v[t]);
   }
-  for (const MotionPositions& real : real_walks) {
+  for (size_t i : reference) {
+    const MotionPositions& real = ctx.real()[i];
     const std::vector<double> v = slower_foot_speed_mps(real, find_foot_joints(real));
     real_speeds.insert(real_speeds.end(), v.begin(), v.end());
   }
@@ -101,8 +111,8 @@ class PathsProtocol : public Protocol {
   bool enabled(const EvalOptions& o) const override { return o.synthetic_paths; }
   bool applies_to(const nn::ModelTraits& t) const override { return t.control == nn::InputUse::kTakes; }
   void run(EvalContext& ctx, EvalResult& result) const override {
-    const std::vector<MotionPositions> real_walks = reference_walks(ctx);
-    const std::vector<MetricValue> real_rows = set_metrics(real_walks, ctx.options().metrics);
+    const Reference reference = walk_reference(ctx);
+    const std::vector<MetricValue>& real_rows = *reference.rows;
     ctx.report("paths", 0, 1);
     std::vector<std::vector<PathPhase>> phases;
     const auto along_paths = sample_synthetic_paths(ctx.run(), ctx.num_samples(), ctx.options().seed + 3000017,
@@ -111,7 +121,7 @@ class PathsProtocol : public Protocol {
     for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
       result.rows.push_back({"paths." + rows[r].key, rows[r].label + " (drawn paths)", rows[r].value, real_rows[r].value});
     for (const SyntheticPath& path : synthetic_paths()) per_path_rows(path.name, along_paths, real_rows, ctx.options().metrics, result);
-    phase_rows(along_paths, phases, real_walks, result);
+    phase_rows(along_paths, phases, ctx, reference.clips, result);
     steady_rows(along_paths, phases, real_rows, ctx.options().metrics, result);
     ctx.report("paths", 1, 1);
   }
