@@ -85,6 +85,7 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
   if (given("--steps")) o.steps = flags.steps;
   if (given("--batch")) o.batch = flags.batch;
   if (given("--window")) o.window = flags.window;
+  if (given("--window-sampling")) o.window_sampling = flags.window_sampling;
   if (given("--lr")) o.lr = flags.lr;
   if (given("--warmup")) o.warmup = flags.warmup;
   if (given("--seed")) o.seed = flags.seed;
@@ -333,6 +334,11 @@ void add_train_command(CLI::App& app, Action* action) {
   train->add_option("--batch", o.batch, "windows per batch (global: shared by the processes of a data-parallel run)")
       ->capture_default_str();
   train->add_option("--window", o.window, "frames per training window (0: the dataset's)");
+  train->add_option("--window-sampling", o.window_sampling,
+                    "how windows are drawn: 'windows' (all alike: long clips weigh more) or 'frames' (each clip "
+                    "in proportion to its frames)")
+      ->check(CLI::IsMember({"windows", "frames"}))
+      ->capture_default_str();
   train->add_option("--lr", o.lr, "peak learning rate (Adam)")->capture_default_str();
   train->add_option("--warmup", o.warmup, "Noam warm-up steps (0: constant learning rate)")->capture_default_str();
   train->add_option("--seed", o.seed, "seed of initialisation, data order and dropout")->capture_default_str();

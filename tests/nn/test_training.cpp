@@ -20,6 +20,7 @@
 #include "core/error.h"
 #include "core/synthetic.h"
 #include "data/dataset.h"
+#include "io/json_file.h"
 #include "nn/checkpoint.h"
 #include "nn/generator.h"
 #include "nn/model.h"
@@ -78,10 +79,12 @@ TEST(Training, NoamSchedule) {
   EXPECT_DOUBLE_EQ(noam_lr(1e-3, 100, 400), 0.5e-3);
 }
 
+// With windows drawn by clip frames (the weighted draw), as the default draw is in every other test.
 TEST(Training, ResumeEqualsUninterruptedTraining) {
   const auto ds = synthetic_dataset();
   const auto dir_a = temp_dir("full"), dir_b = temp_dir("resumed");
   auto oa = tiny_options(dir_a);
+  oa.window_sampling = "frames";
   std::vector<TrainProgress> progress;
   TrainCallbacks cb;
   cb.on_progress = [&](const TrainProgress& p) { progress.push_back(p); };
@@ -93,6 +96,7 @@ TEST(Training, ResumeEqualsUninterruptedTraining) {
   EXPECT_TRUE(progress.back().metrics.count("nll_frame"));
 
   auto ob = tiny_options(dir_b);
+  ob.window_sampling = "frames";
   ob.steps = 5;  // checkpoints at 4 and at the last step, 5
   train(ob, ds);
   ob.steps = 12;
@@ -113,8 +117,22 @@ TEST(Training, ResumeEqualsUninterruptedTraining) {
   EXPECT_EQ(a.family, "moglow");
   EXPECT_EQ(a.context.pose_dim, kDim);
   EXPECT_EQ(a.dataset.content_labels, ds.info().content_labels);
+  EXPECT_EQ(io::read_json((dir_a / "config.json").string()).at("train").at("window_sampling"), "frames");
   fs::remove_all(dir_a);
   fs::remove_all(dir_b);
+}
+
+TEST(Training, WindowSamplingIsReadAndChecked) {
+  EXPECT_EQ(TrainOptions::from_json(nlohmann::json::object()).window_sampling, "windows");  // older runs
+  EXPECT_EQ(TrainOptions::from_json({{"window_sampling", "frames"}}).window_sampling, "frames");
+  EXPECT_EQ(TrainOptions::from_json(TrainOptions::from_json({{"window_sampling", "frames"}}).to_json()).window_sampling,
+            "frames");
+  try {
+    TrainOptions::from_json({{"window_sampling", "clips"}});
+    FAIL() << "an unknown window sampling was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("window_sampling must be \"windows\" or \"frames\", got \"clips\""));
+  }
 }
 
 TEST(Training, ExistingRunIsNotOverwrittenWithoutFlag) {
@@ -647,6 +665,12 @@ TEST(Training, ShortClipsAreNamedOrPaddedWithTheirLength) {
   EXPECT_EQ(plain.windows.size(), 6u);  // starts 0..5 of the 9-frame clip
   const training::SplitWindows padded = training::training_windows(dataset, 4, 2);
   ASSERT_EQ(padded.windows.size(), 7u);
+  // Drawn by clip frames: the 9-frame clip's six windows share 9, the 3-frame clip's one has 3
+  // (a quarter of the draws, as a quarter of the frames; drawn alike, one in seven).
+  EXPECT_EQ(training::clip_frame_weights(plain), std::vector<double>(6, 1.5));
+  std::vector<double> expected(6, 1.5);
+  expected.push_back(3.0);
+  EXPECT_EQ(training::clip_frame_weights(padded), expected);
   const training::BatchMaker maker(dataset, d, 3, torch::kCPU);
   EXPECT_FALSE(maker.make(plain, 0, 2).frames.defined());
   const data::WindowRef short_window = padded.windows[6];

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -26,6 +27,17 @@ SplitWindows training_windows(const data::Dataset& dataset, int window, int min_
                 " frames (shorten the window or add longer clips)");
   }
   return s;
+}
+
+std::vector<double> clip_frame_weights(const SplitWindows& split) {
+  std::map<int, int> windows_of_clip;
+  for (const data::WindowRef& w : split.windows) ++windows_of_clip[w.clip];
+  std::vector<double> weights;
+  weights.reserve(split.windows.size());
+  for (const data::WindowRef& w : split.windows)
+    weights.push_back(static_cast<double>((*split.clips)[static_cast<size_t>(w.clip)].num_frames) /
+                      windows_of_clip[w.clip]);
+  return weights;
 }
 
 SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames) {

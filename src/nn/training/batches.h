@@ -25,6 +25,11 @@ struct SplitWindows {
 // at least that many frames. Throws mosyn::Error when no training clip gives a window.
 SplitWindows training_windows(const data::Dataset& dataset, int window, int min_short_frames = 0);
 
+// Drawing weight of every window of split (same order) for TrainOptions::window_sampling
+// "frames": each clip's weight is its number of frames, shared alike by its windows (a padded
+// short clip's one window gets all of it). Sum = the frames of the clips that give a window.
+std::vector<double> clip_frame_weights(const SplitWindows& split);
+
 // The fixed validation subset: at most max_windows windows (hop window / 2) spread evenly over
 // the val split, in order. Empty when the split has no long-enough clip or max_windows <= 0.
 SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames = 0);

@@ -16,6 +16,7 @@ nlohmann::json TrainOptions::to_json() const {
           {"steps", steps},
           {"batch", batch},
           {"window", window},
+          {"window_sampling", window_sampling},
           {"lr", lr},
           {"warmup", warmup},
           {"grad_clip", grad_clip},
@@ -42,6 +43,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "steps") o.steps = io::json_get<int>(v);
       else if (k == "batch") o.batch = io::json_get<int>(v);
       else if (k == "window") o.window = io::json_get<int>(v);
+      else if (k == "window_sampling") o.window_sampling = v.get<std::string>();
       else if (k == "lr") o.lr = v.get<double>();
       else if (k == "warmup") o.warmup = io::json_get<int>(v);
       else if (k == "grad_clip") o.grad_clip = v.get<double>();
@@ -57,6 +59,8 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "init_from") o.init_from = v.get<std::string>();
       else throw Error("unknown training option '" + k + "'");
     }
+    if (o.window_sampling != "windows" && o.window_sampling != "frames")
+      throw Error("window_sampling must be \"windows\" or \"frames\", got \"" + o.window_sampling + "\"");
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -136,7 +137,8 @@ class Trainer {
   std::unique_ptr<training::BatchMaker> maker_;
   std::unique_ptr<training::LogAppender> log_;
   std::mt19937_64 rng_;
-  std::uniform_int_distribution<size_t> pick_;
+  std::uniform_int_distribution<size_t> pick_;               // window_sampling "windows"
+  std::optional<std::discrete_distribution<size_t>> pick_by_frames_;  // window_sampling "frames"
   std::vector<data::WindowRef> chosen_;
   int step_ = 0;        // optimiser steps done, over all stages
   int stage_ = 0;       // current stage
@@ -261,6 +263,10 @@ void Trainer::prepare_data() {
   if (const std::string w = training::left_out_warning(dataset_, window, min_short); !w.empty()) message(w);
   maker_ = std::make_unique<training::BatchMaker>(dataset_, context_.pose_dim, context_.control_dim, device_);
   pick_ = std::uniform_int_distribution<size_t>(0, train_.windows.size() - 1);
+  if (opts_.window_sampling == "frames") {
+    const std::vector<double> weights = training::clip_frame_weights(train_);
+    pick_by_frames_.emplace(weights.begin(), weights.end());
+  }
   chosen_.resize(opts_.batch);
 }
 
@@ -422,7 +428,7 @@ bool Trainer::train_step(const TrainingStage& stage, bool stop_requested) {
   const int next = step_ + 1;
   const double lr = scheduled_lr(stage.schedule, stage.optimizer.lr, stage_step_ + 1, stage.steps);
   training::set_learning_rate(*optimizer_, lr);
-  for (auto& w : chosen_) w = train_.windows[pick_(rng_)];
+  for (auto& w : chosen_) w = train_.windows[pick_by_frames_ ? (*pick_by_frames_)(rng_) : pick_(rng_)];
   // A stage's first step runs on rank 0 alone with the whole batch: what a model initialises from
   // its first batch (MoGlow's ActNorm) then sees what one process sees, and reaches the others.
   const bool alone = group_ && stage_step_ == 0;
