@@ -146,6 +146,19 @@ std::vector<double> horizontal_speed_mps(const MotionPositions& motion, int join
   return speed;
 }
 
+double pelvis_ground_speed_mps(const std::vector<MotionPositions>& motions, double span_s) {
+  if (!(span_s > 0)) throw Error("pelvis_ground_speed_mps: the span must be positive");
+  double speed_sum = 0;
+  long spans = 0;
+  for (const MotionPositions& m : motions) {
+    if (m.num_frames < 2 || m.num_joints < 1) continue;
+    const int n = std::min(m.num_frames - 1, std::max(1, static_cast<int>(std::lround(span_s * m.fps))));
+    for (int t = 0; t + n < m.num_frames; ++t, ++spans)
+      speed_sum += horizontal(m.position(t + n, 0) - m.position(t, 0), m.up_axis).norm() * m.fps / n;
+  }
+  return spans > 0 ? speed_sum / spans : std::numeric_limits<double>::quiet_NaN();
+}
+
 std::vector<double> footstep_durations_s(const std::vector<double>& speed_mps, double fps, double v_tol_mps) {
   if (!(fps > 0)) throw Error("footstep_durations_s: fps must be positive");
   std::vector<double> out;

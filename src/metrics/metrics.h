@@ -75,6 +75,15 @@ std::vector<int> joint_sides_of(const MotionPositions& motion);
 // coordinate). Empty for fewer than 2 frames.
 std::vector<double> horizontal_speed_mps(const MotionPositions& motion, int joint);
 
+// Ground speed of the pelvis (joint 0; motion_positions collapses a placeholder root) in m/s,
+// measured over spans of span_s seconds: the horizontal distance it covers from frame t to t + n,
+// n = round(span_s * fps) (at least 1), divided by n / fps, averaged over every t and over every
+// motion's spans pooled (a motion shorter than the span counts once, over its whole length). The
+// span averages the gait's sway out, so a body that keeps up with its path reads about the path's
+// speed; a body that falls behind its root control reads slower than real motion along the same
+// control. NaN when no motion has 2 frames. Throws mosyn::Error when span_s is not positive.
+double pelvis_ground_speed_mps(const std::vector<MotionPositions>& motions, double span_s = 1.0);
+
 // Footsteps of one speed track: maximal runs of consecutive samples with speed < v_tol_mps. A run
 // of n samples spans n + 1 frames and lasts n / fps seconds. Runs touching the ends count. (No
 // minimum duration here; analyse_footsteps applies FootstepOptions::min_step_duration_s.)

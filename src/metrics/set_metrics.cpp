@@ -53,6 +53,7 @@ std::vector<MetricValue> set_metrics(const std::vector<MotionPositions>& motions
     }
   }
   rows.push_back({"foot_skating_ratio", "foot skating ratio", skating / motions.size()});
+  rows.push_back({"pelvis_ground_speed_mps", "pelvis ground speed over 1 s (m/s)", pelvis_ground_speed_mps(motions, 1.0)});
   rows.push_back({"bone_length_rmse_cm", "bone-length RMSE (cm)", bone_count > 0 ? std::sqrt(bone_sq / bone_count) * 100 : 0.0});
   for (const auto& name : part_order) {
     const auto it = deformation.find(name);

@@ -87,7 +87,7 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
   EXPECT_EQ(r.prediction_windows, 4);
   EXPECT_GT(progress_calls_, 4);
   for (const char* key :
-       {"motions", "frames", "footsteps.max_steps", "foot_skating_ratio", "bone_length_rmse_cm", "spectral_entropy",
+       {"motions", "frames", "footsteps.max_steps", "foot_skating_ratio", "pelvis_ground_speed_mps", "bone_length_rmse_cm", "spectral_entropy",
         "apd_m", "mean_pose_distance_m", "diversity.apd_m", "diversity.mean_pose_distance_m", "fse",
         "prediction.apd_m", "prediction.ade_m", "prediction.fde_m", "prediction.mmade_m", "prediction.mmfde_m",
         "prediction.fse", "joint_error.motion_prior.f20", "joint_error.pose_prior.f120",
@@ -283,8 +283,8 @@ TEST_F(EvaluateTest, PerContentRowsAgainstClipsOfThatContent) {
     const std::string name = info.content_labels.at(static_cast<size_t>(content));
     for (const auto& m : eval::set_metrics(real)) {
       const std::string key = "locomotion." + name + "." + m.key;
-      if (m.key.rfind("footsteps.", 0) != 0 && m.key != "foot_skating_ratio") {
-        EXPECT_THROW(result_->row(key), Error) << key;  // only footsteps and skating per content
+      if (m.key.rfind("footsteps.", 0) != 0 && m.key != "foot_skating_ratio" && m.key != "pelvis_ground_speed_mps") {
+        EXPECT_THROW(result_->row(key), Error) << key;  // only footsteps, skating and pelvis speed per content
         continue;
       }
       const double v = result_->row(key).real;

@@ -160,6 +160,25 @@ TEST(FootSkatingTest, SlowerFootSpeedByHand) {
   EXPECT_TRUE(slower_foot_speed_mps(two_feet({0.0}, {0.0}, fps), find_foot_joints(walk)).empty());
 }
 
+// The pelvis' ground speed over 1-s spans, by hand: a sway of period 1 s cancels over a span, the
+// height is ignored, and a motion shorter than the span counts once over its length.
+TEST(PelvisGroundSpeedTest, SpansAverageTheSwayOut) {
+  const double fps = 10, pi = 3.14159265358979;
+  MotionPositions walk = two_feet(std::vector<double>(21, 0.0), std::vector<double>(21, 0.0), fps);
+  for (int t = 0; t < walk.num_frames; ++t)  // 1.2 m/s along x, 5 cm sway along z, 3 cm bob
+    walk.positions_m[static_cast<size_t>(t) * 3] =
+        Eigen::Vector3d(1.2 * t / fps, 1.0 + 0.03 * std::sin(4 * pi * t / fps), 0.05 * std::sin(2 * pi * t / fps));
+  EXPECT_NEAR(pelvis_ground_speed_mps({walk}), 1.2, 1e-9);  // 11 spans of 10 frames
+  // Per frame the sway adds speed, so the span is what reads the path's speed.
+  EXPECT_NEAR(horizontal_speed_mps(walk, 0)[0], std::hypot(1.2, 0.05 * std::sin(2 * pi / fps) * fps), 1e-9);
+  MotionPositions brief = two_feet(std::vector<double>(5, 0.0), std::vector<double>(5, 0.0), fps);
+  for (int t = 0; t < brief.num_frames; ++t) brief.positions_m[static_cast<size_t>(t) * 3] = Eigen::Vector3d(0, 1, 0.5 * t / fps);
+  EXPECT_NEAR(pelvis_ground_speed_mps({brief}), 0.5, 1e-9);
+  EXPECT_NEAR(pelvis_ground_speed_mps({walk, brief}), (11 * 1.2 + 0.5) / 12, 1e-9);  // spans pooled
+  EXPECT_TRUE(std::isnan(pelvis_ground_speed_mps({})));
+  EXPECT_THROW(pelvis_ground_speed_mps({walk}, 0.0), Error);
+}
+
 TEST(BodyValidityTest, BoneLengthAndDeformation) {
   MotionPositions m;
   m.fps = 10;
@@ -336,6 +355,8 @@ TEST(SetMetricsTest, SyntheticWalks) {
   EXPECT_LT(j["bone_length_rmse_cm"].get<double>(), 1e-6);
   EXPECT_GT(j["apd_m"].get<double>(), 0.0);
   EXPECT_GT(j["footsteps.max_steps"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(j["pelvis_ground_speed_mps"].get<double>(), pelvis_ground_speed_mps(motions));
+  EXPECT_GT(j["pelvis_ground_speed_mps"].get<double>(), 0.3);  // the synthetic walk moves
   // One motion: no diversity.
   EXPECT_TRUE(metrics_to_json(set_metrics({motions[0]}))["apd_m"].is_null());
 }

@@ -215,6 +215,8 @@ int label_index(const std::vector<std::string>& labels, const std::string& name)
   return it == labels.end() ? -1 : static_cast<int>(it - labels.begin());
 }
 
-bool is_footstep_row(const std::string& key) { return key.rfind("footsteps.", 0) == 0 || key == "foot_skating_ratio"; }
+bool is_gait_row(const std::string& key) {
+  return key.rfind("footsteps.", 0) == 0 || key == "foot_skating_ratio" || key == "pelvis_ground_speed_mps";
+}
 
 }  // namespace mosyn::eval::detail

@@ -47,7 +47,7 @@ void add_per_content_rows(EvalContext& ctx, EvalResult& result) {
     const std::vector<size_t> clips = ctx.clips_of_content(static_cast<int>(c));
     if (clips.empty()) continue;
     add_replicate_rows(ctx, ctx.samples(), clips, ctx.real_set_metrics(static_cast<int>(c)),
-                       "locomotion." + labels[c] + ".", " (content " + labels[c] + ")", detail::is_footstep_row, result);
+                       "locomotion." + labels[c] + ".", " (content " + labels[c] + ")", detail::is_gait_row, result);
   }
 }
 

@@ -16,7 +16,7 @@ void footstep_rows(const std::string& part, const std::string& what, const std::
   if (motions.empty()) return;
   const auto rows = set_metrics(motions, options);
   for (size_t r = 0; r < rows.size() && r < real_rows.size(); ++r)
-    if (detail::is_footstep_row(rows[r].key))
+    if (detail::is_gait_row(rows[r].key))
       result.rows.push_back({"paths." + part + "." + rows[r].key, rows[r].label + " (" + what + ")", rows[r].value,
                              real_rows[r].value});
 }

@@ -148,8 +148,9 @@ nn::SampleExtras walk_extras(const nn::LoadedRun& run, int warmup_frames);
 // Index of `name` in a label vocabulary, -1 when absent.
 int label_index(const std::vector<std::string>& labels, const std::string& name);
 
-// Whether a set-metrics row is one of the footstep or skating rows repeated per path / content.
-bool is_footstep_row(const std::string& key);
+// Whether a set-metrics row is one of the gait rows (footsteps, skating, the pelvis' ground speed)
+// repeated per path / content.
+bool is_gait_row(const std::string& key);
 
 }  // namespace detail
 
