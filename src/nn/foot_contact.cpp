@@ -8,7 +8,7 @@ namespace mosyn::nn {
 
 PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family) : fps_(context.fps) {
   const Skeleton& skeleton = context.skeleton;
-  const std::string who = family + ": a heel term (foot_contact_weight, heel_speed_weight, lift_off_weight) needs ";
+  const std::string who = family + ": a heel or pelvis term (foot_contact_weight, heel_speed_weight, lift_off_weight, pelvis_follow_weight) needs ";
   if (context.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context.pose_dim)
     throw Error(who + "the positions form with the dataset's skeleton (a model built by mosyn train or load_run)");
   const auto& st = context.stats;
@@ -51,6 +51,19 @@ torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const tor
 
 torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
   return mean_over(torch::relu(kPlantedMps - s.made_mps), (s.real_mps >= kPlantedMps).to(s.made_mps.dtype()), valid);
+}
+
+torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
+                                                   const torch::Tensor& valid) const {
+  if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
+  const auto opts = made.options();
+  const auto ground = torch::tensor({0L, 2L}, torch::dtype(torch::kInt64).device(made.device()));
+  const auto scale = pose_std_.to(opts).index_select(0, ground);  // the means cancel in the difference
+  const auto offset = (made.index_select(-1, ground) - real.to(opts).index_select(-1, ground)) * scale;
+  const auto distance = (offset.pow(2).sum(-1) + 1e-12).sqrt();  // [B, n]; eps keeps the gradient finite at 0
+  auto counted = torch::ones_like(distance);
+  if (valid.defined()) counted = counted * valid.to(opts);
+  return (distance * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {

@@ -69,6 +69,14 @@ class PlantedHeelTerm {
     return mean_lingering_speed(speeds(made, real, control), valid);
   }
 
+  // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
+  // positions form, which is relative to the root's floor point and heading) over the frames of
+  // made, real [B, n, D] (standardised; frame i of one is frame i of the other); valid (optional
+  // [B, n], 0/1) leaves frames out. Drawn free, a body that falls behind its root shows here as a
+  // growing distance. A scalar, differentiable in made; 0 when no frame is valid.
+  torch::Tensor mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
+                                     const torch::Tensor& valid = {}) const;
+
   const std::vector<int>& heels() const { return heels_; }
 
  private:

@@ -120,3 +120,35 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());
   EXPECT_LT(made_var.grad()[0][frames - 1][left_x].item<double>(), 0.0);
 }
+
+// The pelvis term (mean_pelvis_offset_m) by hand: a made pelvis 3 cm sideways and 4 cm back of the
+// data's over the second half of the frames is 5 cm off there and 0 before; height is ignored.
+TEST(PlantedHeelTerm, MeanPelvisOffsetIsTheHorizontalDistanceToTheData) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch still = nn::testing::standing_batch(s, ctx, frames);
+  const PlantedHeelTerm term(ctx, "test");
+  ASSERT_EQ(s.parents[0], -1);  // the pelvis: joint 0, features 0..2 (x, y up, z)
+  auto behind = still.pose.clone();
+  for (int64_t t = frames / 2; t < frames; ++t) {
+    behind[0][t][0] += 0.03;
+    behind[0][t][1] += 0.5;  // a bob is not a drift
+    behind[0][t][2] -= 0.04;
+  }
+  EXPECT_NEAR(term.mean_pelvis_offset_m(behind, still.pose).item<double>(), 0.05 * (frames / 2) / frames, 1e-5);
+  EXPECT_NEAR(term.mean_pelvis_offset_m(still.pose, behind).item<double>(), 0.025, 1e-5);  // symmetric
+  EXPECT_NEAR(term.mean_pelvis_offset_m(still.pose, still.pose).item<double>(), 0.0, 1e-5);
+  auto second_half = torch::zeros({1, frames});
+  second_half.narrow(1, frames / 2, frames / 2).fill_(1.0);
+  EXPECT_NEAR(term.mean_pelvis_offset_m(behind, still.pose, second_half).item<double>(), 0.05, 1e-5);
+  // The gradient pulls the made pelvis back onto the data's, and touches nothing else.
+  auto made_var = behind.clone().requires_grad_(true);
+  term.mean_pelvis_offset_m(made_var, still.pose).backward();
+  const auto g = made_var.grad()[0][frames - 1];
+  EXPECT_GT(g[0].item<double>(), 0.0);
+  EXPECT_LT(g[2].item<double>(), 0.0);
+  EXPECT_EQ(g[1].item<double>(), 0.0);
+  EXPECT_EQ(made_var.grad().abs().sum().item<double>(), made_var.grad().narrow(2, 0, 3).abs().sum().item<double>());
+  EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());  // also where the offset is 0
+}

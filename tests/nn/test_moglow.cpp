@@ -587,6 +587,31 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
               eval_all.loss().item<double>() + 1.0 * eval_all.terms.at("planted_heel_mps").item<double>() +
                   0.5 * eval_all.terms.at("heel_speed_error_mps").item<double>(),
               1e-6);
+  // The pelvis term on the same draws: the drawn pelvis' horizontal distance from the data's,
+  // by hand over the k drawn frames; training adds weight x term.
+  cfg["lift_off_weight"] = 0.0;
+  cfg["pelvis_follow_weight"] = 2.0;
+  both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  both->to(torch::kFloat64);
+  torch::manual_seed(1);
+  randomise(*both);
+  req.temperature = 0.0;
+  const auto drawn_both = both->sample(req).pose;
+  double pelvis = 0;
+  for (int64_t t = 0; t < k; ++t)
+    pelvis += std::hypot((drawn_both[0][t][0] - pose[0][tau + t][0]).item<double>(),
+                         (drawn_both[0][t][2] - pose[0][tau + t][2]).item<double>());
+  const LossTerms eval_pelvis = loss_in(false), train_pelvis = loss_in(true);
+  EXPECT_NEAR(eval_pelvis.terms.at("pelvis_offset_m").item<double>(), pelvis / k, 1e-6);
+  EXPECT_GT(pelvis, 0.0);
+  EXPECT_NEAR(train_pelvis.loss().item<double>(),
+              eval_pelvis.loss().item<double>() + 1.0 * eval_pelvis.terms.at("planted_heel_mps").item<double>() +
+                  0.5 * eval_pelvis.terms.at("heel_speed_error_mps").item<double>() +
+                  2.0 * eval_pelvis.terms.at("pelvis_offset_m").item<double>(),
+              1e-6);
+  cfg["pelvis_follow_weight"] = -1.0;
+  EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
+  cfg["pelvis_follow_weight"] = 0.0;
   cfg["lift_off_weight"] = -1.0;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
   cfg["lift_off_weight"] = 0.0;

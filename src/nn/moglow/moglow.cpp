@@ -88,6 +88,10 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
                  "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
                  at_least(0.0))
           .written_if([](const O& o) { return o.lift_off_weight > 0; })
+          .field("pelvis_follow_weight", &O::pelvis_follow_weight,
+                 "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
+                 at_least(0.0))
+          .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -422,6 +426,9 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   out.planted_mps = planted_heels_.mean_planted_speed(speeds, valid_pairs);
   if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(speeds, valid_pairs);
   if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(speeds, valid_pairs);
+  if (options_.pelvis_follow_weight > 0)
+    out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, batch.pose.narrow(1, tau, n),
+                                                              valid.defined() ? valid.narrow(1, 0, n) : valid);
   return out;
 }
 
@@ -481,6 +488,10 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     if (heels.lingering_mps.defined()) {
       added = added + options_.lift_off_weight * heels.lingering_mps;
       out.terms["lingering_heel_mps"] = heels.lingering_mps.detach();
+    }
+    if (heels.pelvis_offset_m.defined()) {
+      added = added + options_.pelvis_follow_weight * heels.pelvis_offset_m;
+      out.terms["pelvis_offset_m"] = heels.pelvis_offset_m.detach();
     }
     if (is_training()) out.terms["loss"] = out.terms["loss"] + added;
     out.terms["planted_heel_mps"] = heels.planted_mps.detach();
