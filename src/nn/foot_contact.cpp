@@ -36,8 +36,8 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
 
 namespace {
 
-// Mean of value [B, T-1, 2] over the pairs where `counted` (0/1, same shape) is 1 and valid
-// ([B, T-1], optional) allows; 0 when none is.
+// Mean of value [B, T-1, K] (K heels, or 1) over the entries where `counted` (0/1, same shape) is 1
+// and valid ([B, T-1], optional) allows; 0 when none is.
 torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const torch::Tensor& valid) {
   if (valid.defined()) counted = counted * valid.to(value.options()).unsqueeze(-1);
   return (value * counted).sum() / counted.sum().clamp_min(1.0);
@@ -60,10 +60,9 @@ torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, c
   const auto ground = torch::tensor({0L, 2L}, torch::dtype(torch::kInt64).device(made.device()));
   const auto scale = pose_std_.to(opts).index_select(0, ground);  // the means cancel in the difference
   const auto offset = (made.index_select(-1, ground) - real.to(opts).index_select(-1, ground)) * scale;
-  const auto distance = (offset.pow(2).sum(-1) + 1e-12).sqrt();  // [B, n]; eps keeps the gradient finite at 0
-  auto counted = torch::ones_like(distance);
-  if (valid.defined()) counted = counted * valid.to(opts);
-  return (distance * counted).sum() / counted.sum().clamp_min(1.0);
+  // [B, n, 1], as the heel terms' [B, n, 2]; eps keeps the gradient finite at 0.
+  const auto distance = (offset.pow(2).sum(-1, /*keepdim=*/true) + 1e-12).sqrt();
+  return mean_over(distance, torch::ones_like(distance), valid);
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {

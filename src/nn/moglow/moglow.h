@@ -272,11 +272,11 @@ class MoGlowImpl : public MotionModel {
   int lookahead_dim_ = 0;
   double dropout_ = 0.0;
   PoseTransport transport_;  // with options_.residual
-  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight or heel_speed_weight > 0
-  // The heel terms of a batch on one set of draws (MoGlowOptions::foot_contact_weight,
-  // heel_speed_weight): planted-heel speed and heel-speed error, m/s scalars (the error undefined
-  // when its weight is 0). seen = the poses conditioned on [B, T, D], e the window's encoding,
-  // valid [B, T'] (undefined = all frames).
+  PlantedHeelTerm planted_heels_;  // with options_.heel_terms_on()
+  // The heel and pelvis terms of a batch on one set of draws (MoGlowOptions::foot_contact_weight,
+  // heel_speed_weight, lift_off_weight, pelvis_follow_weight): scalars in m/s (m for the pelvis).
+  // seen = the poses conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined =
+  // all frames).
   struct HeelTerms {
     // speed_error_mps, lingering_mps, pelvis_offset_m: undefined when their weight is 0
     torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m;
