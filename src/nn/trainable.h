@@ -25,6 +25,10 @@ struct Batch {
   // [B] int64, valid frames of each window, in 1..T (may be undefined: all T). Only families whose
   // short_window_min_frames() > 0 get windows with fewer: frames past it repeat the last valid one.
   torch::Tensor frames = {};
+  // [B, K, C] float, standardised: the control of the K frames that follow each window in its clip
+  // (past the clip's end its last frame repeats), K = TrainableModel::control_frames_after().
+  // Undefined when the family reads none.
+  torch::Tensor control_after = {};
 };
 
 // Named scalar tensors returned by TrainableModel::loss. terms["loss"] is the total that the
@@ -82,6 +86,11 @@ class TrainableModel : public torch::nn::Module {
   // clip of at least n frames as one window padded to the window's length, with Batch::frames
   // telling the valid part, for families whose loss masks padding.
   virtual int short_window_min_frames() const { return 0; }
+
+  // Frames of control past each window's end that loss() reads (a look-ahead of the path), handed
+  // over in Batch::control_after; 0 (the default) hands none. Without them a look-ahead near the
+  // window's end would see a path that stops there, which sampling along a longer path never does.
+  virtual int control_frames_after() const { return 0; }
 
   // The parameters that take the label features, for warm starts across vocabularies. Default:
   // none (a family without label inputs, or one whose label columns are not to be remapped).

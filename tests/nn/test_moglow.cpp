@@ -313,6 +313,16 @@ TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
   auto pose = torch::randn({2, 7, 6}, torch::kFloat64);
   auto cond = model->conditioning(pose, control);
   EXPECT_TRUE(torch::allclose(cond.narrow(2, 2 * 6 + 3 * 3, 6), f.narrow(1, 2, 5).transpose(0, 1)));
+  // A window cut from the longer control, with the frames after it (Batch::control_after), looks
+  // ahead as the whole control does; with fewer after it than the longest offset, the last repeats.
+  EXPECT_EQ(model->control_frames_after(), 3);
+  EXPECT_TRUE(torch::allclose(model->lookahead_features(control.narrow(1, 0, 4), control.narrow(1, 4, 3)),
+                              f.narrow(1, 0, 4)));
+  EXPECT_TRUE(torch::allclose(model->lookahead_features(control.narrow(1, 0, 4), control.narrow(1, 4, 1)),
+                              model->lookahead_features(control.narrow(1, 0, 5)).narrow(1, 0, 4)));
+  EXPECT_TRUE(torch::allclose(model->conditioning(pose.narrow(1, 0, 4), control.narrow(1, 0, 4), {}, control.narrow(1, 4, 3)),
+                              cond.narrow(0, 0, 2)));
+  EXPECT_THROW(model->lookahead_features(control, torch::zeros({2, 3, 2}, torch::kFloat64)), mosyn::Error);
   EXPECT_FALSE(model->traits().streaming);
   SampleRequest req;
   req.control = control;

@@ -684,6 +684,21 @@ TEST(Training, ShortClipsAreNamedOrPaddedWithTheirLength) {
   EXPECT_TRUE(torch::equal(b.control[1][3], b.control[1][2]));
   EXPECT_FALSE(torch::equal(b.pose[1][2], b.pose[1][1]));
   EXPECT_EQ(b.content[1].item<int64_t>(), 1);
+  EXPECT_FALSE(b.control_after.defined());
+  // With control_after, each window carries the control of the frames after it in its clip,
+  // the clip's last frame repeating past its end (as for a path that ends there).
+  training::SplitWindows ahead = padded;
+  ahead.control_after = 3;
+  const std::vector<data::WindowRef> picks = {padded.windows[0], padded.windows[5], short_window};
+  const Batch a = maker.make(ahead, picks);
+  ASSERT_EQ(a.control_after.sizes(), (std::vector<int64_t>{3, 3, 3}));
+  const Batch later = maker.make(ahead, std::vector<data::WindowRef>{padded.windows[4]});  // frames 4..7
+  EXPECT_TRUE(torch::equal(a.control_after[0], later.control[0].narrow(0, 0, 3)));
+  EXPECT_FALSE(torch::equal(a.control_after[0][0], a.control_after[0][1]));
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(torch::equal(a.control_after[1][k], a.control[1][3]));  // window 5..8 ends the clip
+    EXPECT_TRUE(torch::equal(a.control_after[2][k], a.control[2][2]));  // the short clip's last frame
+  }
   fs::remove_all(dir);
 }
 

@@ -287,8 +287,12 @@ std::vector<LabelInput> MoGlowImpl::label_inputs() const {
   return out;
 }
 
+int MoGlowImpl::control_frames_after() const {
+  return options_.lookahead.empty() ? 0 : *std::max_element(options_.lookahead.begin(), options_.lookahead.end());
+}
+
 torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control,
-                                       const torch::Tensor& labels) const {
+                                       const torch::Tensor& labels, const torch::Tensor& control_after) const {
   const int64_t tau = options_.tau, b = pose.size(0), t = pose.size(1);
   const int64_t n = t - tau;
   // unfold(1, w, 1): [B, windows, F, w]; window s covers frames s..s+w-1.
@@ -301,16 +305,26 @@ torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::T
       throw Error("moglow: labels must be [B, " + std::to_string(label_dim_) + "]");
     parts.push_back(lab.unsqueeze(1).expand({b, n, label_dim_}));
   }
-  if (lookahead_dim_ > 0) parts.push_back(lookahead_features(control).narrow(1, tau, n));
+  if (lookahead_dim_ > 0) parts.push_back(lookahead_features(control, control_after).narrow(1, tau, n));
   return torch::cat(parts, -1).transpose(0, 1);
 }
 
-torch::Tensor MoGlowImpl::lookahead_features(const torch::Tensor& control) const {
+torch::Tensor MoGlowImpl::lookahead_features(const torch::Tensor& control, const torch::Tensor& control_after) const {
   if (lookahead_dim_ == 0) return {};
   const int64_t b = control.size(0), t = control.size(1), c = control.size(2);
-  const int64_t longest = *std::max_element(options_.lookahead.begin(), options_.lookahead.end());
-  // Past the end the last control repeats; cumulative sums give every window mean at once.
-  auto padded = torch::cat({control, control.narrow(1, t - 1, 1).expand({b, longest, c})}, 1);
+  const int64_t longest = control_frames_after();
+  std::vector<torch::Tensor> path = {control};
+  int64_t known = 0;  // frames of control_after used
+  if (control_after.defined() && control_after.size(1) > 0) {
+    if (control_after.dim() != 3 || control_after.size(0) != b || control_after.size(2) != c)
+      throw Error("moglow: control_after must be [B, K, " + std::to_string(c) + "] matching the control");
+    known = std::min(longest, control_after.size(1));
+    path.push_back(control_after.narrow(1, 0, known).to(control.dtype()));
+  }
+  // Past what is known the last control repeats; cumulative sums give every window mean at once.
+  const torch::Tensor& last = path.back();
+  path.push_back(last.narrow(1, last.size(1) - 1, 1).expand({b, longest - known, c}));
+  auto padded = torch::cat(path, 1);
   auto sums = torch::cat({torch::zeros({b, 1, c}, control.options()), padded.cumsum(1)}, 1);  // sums[i] = sum of frames < i
   std::vector<torch::Tensor> parts;
   for (int k : options_.lookahead)  // mean of frames t+1..t+k = (sums[t+k+1] - sums[t+1]) / k
@@ -328,7 +342,7 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
                                        const torch::Tensor& history_keep,
                                        const std::vector<c10::optional<LstmState>>* init_states,
                                        bool initialize_actnorm, const torch::Tensor& labels,
-                                       const torch::Tensor& history_offset) {
+                                       const torch::Tensor& history_offset, const torch::Tensor& control_after) {
   const int64_t tau = options_.tau;
   if (pose.dim() != 3 || pose.size(2) != context_.pose_dim)
     throw Error("moglow: pose must be [B, T, " + std::to_string(context_.pose_dim) + "]");
@@ -342,7 +356,7 @@ MoGlowImpl::Encoded MoGlowImpl::encode(const torch::Tensor& pose, const torch::T
   // the frames it scores never are.
   const auto seen = history_offset.defined() ? pose + history_offset : pose;
   auto hist_pose = history_keep.defined() ? seen * history_keep.unsqueeze(-1).to(pose.dtype()) : seen;
-  auto cond = conditioning(hist_pose, control, labels);
+  auto cond = conditioning(hist_pose, control, labels, control_after);
   const int64_t n = pose.size(1) - tau;
   auto x = pose.narrow(1, tau, n);
   if (options_.residual) x = x - transport_.apply(seen.narrow(1, tau - 1, n), control.narrow(1, tau, n));
@@ -458,7 +472,7 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     offset = (torch::randn(batch.pose.sizes(), torch::dtype(batch.pose.scalar_type())) * options_.history_noise)
                  .to(batch.pose.device());
   }
-  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels, offset);
+  auto e = encode(batch.pose, batch.control, keep, nullptr, is_training(), labels, offset, batch.control_after);
   const double d = context_.pose_dim;
   auto ll = -0.5 * e.z.pow(2).sum(-1) - 0.5 * d * kLog2Pi + e.logdet;  // [B, T']
   auto logdet = e.logdet;

@@ -206,6 +206,9 @@ class MoGlowImpl : public MotionModel {
   std::vector<LabelInput> label_inputs() const override;
   // With short_clips: clips of more than tau frames (at least one predicted frame).
   int short_window_min_frames() const override { return options_.short_clips ? options_.tau + 1 : 0; }
+  // With look-ahead, its longest offset: the look-ahead of a window's last frames reads the path
+  // past the window.
+  int control_frames_after() const override;
 
   // Takes control, labels (when trained with them) and prefixes (as the pose history); streams
   // unless it looks ahead; warms up for 1 s from the mean pose.
@@ -228,12 +231,14 @@ class MoGlowImpl : public MotionModel {
   // uninitialised ActNorm from this data (loss() does so in training mode). labels: [B,
   // label_dim()] from label_features (undefined = no labels); ignored when label_dim() is 0.
   // history_offset (optional [B, T, D]) is added to the poses conditioned on (history, the
-  // residual's previous frame) but not to the frames scored (history_noise).
+  // residual's previous frame) but not to the frames scored (history_noise). control_after
+  // (optional [B, K, C] standardised, Batch::control_after) continues the control past the window
+  // for the look-ahead.
   Encoded encode(const torch::Tensor& pose, const torch::Tensor& control,
                  const torch::Tensor& history_keep = {},
                  const std::vector<c10::optional<LstmState>>* init_states = nullptr,
                  bool initialize_actnorm = false, const torch::Tensor& labels = {},
-                 const torch::Tensor& history_offset = {});
+                 const torch::Tensor& history_offset = {}, const torch::Tensor& control_after = {});
 
   // The generating direction over a whole window at once, teacher-forced (the history is the
   // data's, through cond): z [T', B, D] and cond [T', B, cond_dim()] (Encoded::cond) -> what the
@@ -249,15 +254,16 @@ class MoGlowImpl : public MotionModel {
   // tau..T-1: concat of poses t-tau..t-1 (oldest first), controls t-tau..t, then the labels
   // [B, label_dim()] (zeros when undefined).
   torch::Tensor conditioning(const torch::Tensor& pose, const torch::Tensor& control,
-                             const torch::Tensor& labels = {}) const;
+                             const torch::Tensor& labels = {}, const torch::Tensor& control_after = {}) const;
   // With look-ahead, the control's look-ahead features of frames tau..T-1 are appended last.
 
   int cond_dim() const { return cond_dim_; }
   // Size of the label part of the conditioning: content + style vocabularies, or 0 without labels.
   int label_dim() const { return label_dim_; }
-  // Look-ahead features [B, T, 3 * lookahead.size()] of a standardised control [B, T, C] (see
-  // MoGlowOptions::lookahead); undefined without look-ahead.
-  torch::Tensor lookahead_features(const torch::Tensor& control) const;
+  // Look-ahead features [B, T, C * lookahead.size()] of a standardised control [B, T, C] (see
+  // MoGlowOptions::lookahead); undefined without look-ahead. The path continues with control_after
+  // (optional [B, K, C], K >= 0), then its last frame repeats (a path that ends stands there).
+  torch::Tensor lookahead_features(const torch::Tensor& control, const torch::Tensor& control_after = {}) const;
   double dropout() const { return dropout_; }
   // The residual's transport (MoGlowOptions::residual); nullptr when the flow models x_t itself.
   const PoseTransport* transport() const { return options_.residual ? &transport_ : nullptr; }

@@ -80,6 +80,8 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
   auto content = torch::empty({count}, torch::kInt64);
   auto style = torch::empty({count}, torch::kInt64);
   auto frames = torch::empty({count}, torch::kInt64);
+  const int after = std::max(0, split.control_after);
+  auto ctrl_after = torch::empty({count, after, c_});
   for (int64_t i = 0; i < count; ++i) {
     const data::WindowRef& w = windows[i];
     const auto& clip = (*split.clips)[w.clip];
@@ -92,6 +94,10 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
       pose[i].narrow(0, valid, window - valid).copy_(pose[i][valid - 1].expand({window - valid, d_}));
       ctrl[i].narrow(0, valid, window - valid).copy_(ctrl[i][valid - 1].expand({window - valid, c_}));
     }
+    for (int k = 0; k < after; ++k) {  // past the clip's end its last frame repeats, as along a path that ends
+      const int f = std::min(w.start + valid + k, clip.num_frames - 1);
+      std::memcpy(ctrl_after[i][k].data_ptr<float>(), clip.control.data() + static_cast<size_t>(f) * c_, sizeof(float) * c_);
+    }
     content[i] = clip.content;
     style[i] = clip.style;
     frames[i] = valid;
@@ -100,6 +106,7 @@ Batch BatchMaker::make(const SplitWindows& split, const std::vector<data::Window
   if (split.padded) b.frames = frames.to(device_);
   b.pose = with_constant_noise(standardiser_.pose(pose), windows).to(device_);
   b.control = standardiser_.control(ctrl).to(device_);
+  if (after > 0) b.control_after = standardiser_.control(ctrl_after).to(device_);
   b.content = content.to(device_);
   b.style = style.to(device_);
   return b;

@@ -18,6 +18,7 @@ struct SplitWindows {
   std::vector<data::WindowRef> windows;
   int window = 0;
   bool padded = false;  // short clips included as padded windows (batches carry Batch::frames)
+  int control_after = 0;  // frames of control after each window that batches carry (Batch::control_after)
 };
 
 // Every window of `window` frames with hop 1 in the train split; with min_short_frames > 0 (the
@@ -48,7 +49,8 @@ class BatchMaker {
   BatchMaker(const data::Dataset& dataset, int pose_dim, int control_dim, const torch::Device& device);
 
   // The windows split.windows[begin, begin + count) as one batch (pose [count, window, D], control
-  // [count, window, C], content and style [count]) on the device.
+  // [count, window, C], content and style [count]; with split.control_after = K > 0 also
+  // control_after [count, K, C]) on the device.
   Batch make(const SplitWindows& split, size_t begin, size_t count) const;
   // The given windows of split's clips as one batch.
   Batch make(const SplitWindows& split, const std::vector<data::WindowRef>& windows) const;

@@ -260,6 +260,7 @@ void Trainer::prepare_data() {
   const int min_short = model_->short_window_min_frames();
   train_ = training::training_windows(dataset_, window, min_short);
   val_ = training::validation_windows(dataset_, window, opts_.val_windows, min_short);
+  train_.control_after = val_.control_after = model_->control_frames_after();
   if (const std::string w = training::left_out_warning(dataset_, window, min_short); !w.empty()) message(w);
   maker_ = std::make_unique<training::BatchMaker>(dataset_, context_.pose_dim, context_.control_dim, device_);
   pick_ = std::uniform_int_distribution<size_t>(0, train_.windows.size() - 1);
