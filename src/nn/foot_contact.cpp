@@ -6,7 +6,9 @@
 
 namespace mosyn::nn {
 
-PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family) : fps_(context.fps) {
+PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction)
+    : fps_(context.fps), planted_speed_fraction_(planted_speed_fraction) {
+  if (!(planted_speed_fraction >= 0)) throw Error(family + ": planted_speed_fraction must not be negative");
   const Skeleton& skeleton = context.skeleton;
   const std::string who = family + ": a heel or pelvis term (foot_contact_weight, heel_speed_weight, lift_off_weight, pelvis_follow_weight) needs ";
   if (context.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context.pose_dim)
@@ -30,8 +32,15 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
   const auto opts = made.options();
   const auto pm = pose_mean_.to(opts), ps = pose_std_.to(opts);
   const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
-  return {joint_ground_speed_mps(made * ps + pm, ctrl, heels_, fps_),
-          joint_ground_speed_mps(real.to(opts) * ps + pm, ctrl, heels_, fps_)};
+  HeelSpeeds out{joint_ground_speed_mps(made * ps + pm, ctrl, heels_, fps_),
+                 joint_ground_speed_mps(real.to(opts) * ps + pm, ctrl, heels_, fps_), {}};
+  if (planted_speed_fraction_ > 0) {
+    // The control of frame t is the root's step into it (sideways, forward in metres; turn).
+    const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);
+    const auto root_mps = step.norm(2, -1, /*keepdim=*/true) * fps_;
+    out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(kPlantedMps).detach();
+  }
+  return out;
 }
 
 namespace {
@@ -46,10 +55,14 @@ torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const
 }  // namespace
 
 torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
-  return mean_over(s.made_mps, (s.real_mps < kPlantedMps).to(s.made_mps.dtype()), valid);
+  const auto planted = s.planted_below_mps.defined() ? s.real_mps < s.planted_below_mps : s.real_mps < kPlantedMps;
+  return mean_over(s.made_mps, planted.to(s.made_mps.dtype()), valid);
 }
 
 torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
+  if (s.planted_below_mps.defined())
+    return mean_over(torch::relu(s.planted_below_mps - s.made_mps),
+                     (s.real_mps >= s.planted_below_mps).to(s.made_mps.dtype()), valid);
   return mean_over(torch::relu(kPlantedMps - s.made_mps), (s.real_mps >= kPlantedMps).to(s.made_mps.dtype()), valid);
 }
 

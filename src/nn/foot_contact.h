@@ -23,14 +23,19 @@ class PlantedHeelTerm {
   PlantedHeelTerm() = default;
   // From a positions-form context with the dataset's skeleton and statistics (a model built by
   // mosyn train or load_run): the two ankles of core find_legs. family names the caller in errors.
-  // Throws mosyn::Error when the context cannot give them.
-  PlantedHeelTerm(const ModelContext& context, const std::string& family);
+  // With planted_speed_fraction f > 0 a data heel is planted below max(kPlantedMps, f x the root's
+  // ground speed into the frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s
+  // for more than one frame (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never),
+  // so at the fixed threshold the runs barely reach the terms. Throws mosyn::Error when the
+  // context cannot give the heels or f is negative.
+  PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction = 0.0);
 
   // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
   // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
   // frame t is the root's step into it). Computed once, they serve every term below.
+  // planted_below_mps [B, T-1, 1]: the planted threshold of each step (undefined: kPlantedMps).
   struct HeelSpeeds {
-    torch::Tensor made_mps, real_mps;
+    torch::Tensor made_mps, real_mps, planted_below_mps;
   };
   HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const;
 
@@ -58,8 +63,8 @@ class PlantedHeelTerm {
     return mean_speed_error(speeds(made, real, control), valid);
   }
 
-  // Mean of max(0, kPlantedMps - made heel speed) over the (heel, step) pairs where the real heel
-  // has lifted (moves at kPlantedMps or faster): how far below the planted threshold a made heel
+  // Mean of max(0, threshold - made heel speed) over the (heel, step) pairs where the real heel
+  // has lifted (moves at the planted threshold, kPlantedMps or the speed-scaled one, or faster): how far below the planted threshold a made heel
   // lingers where the data's has left the ground (valid as above). The complement of
   // mean_planted_speed: together they charge a contact that starts late or ends late on either
   // side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
@@ -82,6 +87,7 @@ class PlantedHeelTerm {
  private:
   std::vector<int> heels_;
   double fps_ = 30.0;
+  double planted_speed_fraction_ = 0.0;
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]
 };
 

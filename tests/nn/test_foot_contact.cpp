@@ -152,3 +152,48 @@ TEST(PlantedHeelTerm, MeanPelvisOffsetIsTheHorizontalDistanceToTheData) {
   EXPECT_EQ(made_var.grad().abs().sum().item<double>(), made_var.grad().narrow(2, 0, 3).abs().sum().item<double>());
   EXPECT_TRUE(torch::isfinite(made_var.grad()).all().item<bool>());  // also where the offset is 0
 }
+
+namespace {
+
+// The pose of `still` [1, T, D] with both heels moving back (−z, in the root's heading frame) by
+// metres_per_frame a frame, and the control of a root stepping forward root_step_m a frame: in
+// the world the heels move forward at (root_step_m − metres_per_frame) x 30 m/s.
+Batch heels_behind_a_moving_root(const Batch& still, const Skeleton& s, double root_step_m, double metres_per_frame) {
+  Batch b{still.pose.clone(), still.control.clone(), {}, {}};
+  b.control.select(2, 1).fill_(root_step_m);
+  for (const char* heel : {"Foot_L", "Foot_R"}) {
+    const int64_t z = 3 * s.find(heel) + 2;
+    for (int64_t t = 0; t < b.pose.size(1); ++t) b.pose[0][t][z] -= metres_per_frame * t;
+  }
+  return b;
+}
+
+}  // namespace
+
+// planted_speed_fraction by hand: behind a root at 3 m/s (0.1 m a frame at 30 fps) a heel at
+// 0.2 m/s is planted under max(0.15, 0.1 x 3) = 0.3 m/s, not under the fixed 0.15; behind a
+// root at 1.2 m/s the threshold stays 0.15. The lingering term uses the same threshold.
+TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const Batch still = nn::testing::standing_batch(s, ctx, 12);
+  const PlantedHeelTerm fixed(ctx, "test"), scaled(ctx, "test", 0.1);
+  const Batch running = heels_behind_a_moving_root(still, s, 0.1, 0.1 - 0.2 / 30);  // heels at 0.2 m/s
+  const auto speeds = scaled.speeds(running.pose, running.pose, running.control);
+  ASSERT_TRUE(speeds.planted_below_mps.defined());
+  EXPECT_NEAR(speeds.planted_below_mps.min().item<double>(), 0.3, 1e-5);
+  EXPECT_NEAR(speeds.real_mps.mean().item<double>(), 0.2, 1e-4);
+  EXPECT_FALSE(fixed.speeds(running.pose, running.pose, running.control).planted_below_mps.defined());
+  EXPECT_NEAR(scaled.mean_planted_speed(running.pose, running.pose, running.control).item<double>(), 0.2, 1e-4);
+  EXPECT_NEAR(fixed.mean_planted_speed(running.pose, running.pose, running.control).item<double>(), 0.0, 1e-6);
+  // Behind a walking root the threshold is the fixed one: the same 0.2-m/s heel is not planted.
+  const Batch walking = heels_behind_a_moving_root(still, s, 0.04, 0.04 - 0.2 / 30);
+  EXPECT_NEAR(scaled.mean_planted_speed(walking.pose, walking.pose, walking.control).item<double>(), 0.0, 1e-6);
+  // A heel planted in the world (moving back at the root's step) where the data's runs at 0.5 m/s,
+  // lifted under either threshold: it lingers 0.3 below the scaled one, 0.15 below the fixed.
+  const Batch lifted = heels_behind_a_moving_root(still, s, 0.1, 0.1 - 0.5 / 30);
+  const Batch planted = heels_behind_a_moving_root(still, s, 0.1, 0.1);
+  EXPECT_NEAR(scaled.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.3, 1e-4);
+  EXPECT_NEAR(fixed.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.15, 1e-4);
+  EXPECT_THROW(PlantedHeelTerm(ctx, "test", -0.1), Error);
+}

@@ -622,6 +622,11 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   cfg["pelvis_follow_weight"] = -1.0;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
   cfg["pelvis_follow_weight"] = 0.0;
+  cfg["planted_speed_fraction"] = -0.1;
+  EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
+  cfg["planted_speed_fraction"] = 0.1;  // read, kept in the resolved config (its effect: test_foot_contact)
+  EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("planted_speed_fraction").get<double>(), 0.1);
+  cfg.erase("planted_speed_fraction");
   cfg["lift_off_weight"] = -1.0;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
   cfg["lift_off_weight"] = 0.0;

@@ -92,6 +92,9 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
                  "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
                  at_least(0.0))
           .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
+          .field("planted_speed_fraction", &O::planted_speed_fraction,
+                 "training: heel terms' planted threshold max(0.15 m/s, this x root speed); 0 = 0.15 m/s", at_least(0.0))
+          .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -270,7 +273,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.heel_terms_on()) planted_heels_ = PlantedHeelTerm(context, "moglow");
+  if (options.heel_terms_on()) planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction);
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));

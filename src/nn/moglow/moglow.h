@@ -91,6 +91,11 @@ struct MoGlowOptions {
   // does (held-out runs at 3.3 m/s: the body made 1.7 m/s). Useful with foot_contact_rollout > 0.
   // 0 = off. Logged as pelvis_offset_m.
   double pelvis_follow_weight = 0.0;
+  // Training only: the heel terms' planted threshold rises with the root's ground speed, to
+  // max(0.15 m/s, fraction x root speed) (PlantedHeelTerm): at 20 fps a running heel seldom
+  // stays under 0.15 m/s for more than a frame, so at the fixed threshold the runs barely reach
+  // the terms and their footsteps stay soft. 0 = the fixed 0.15 m/s (runs before session 29).
+  double planted_speed_fraction = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0;
