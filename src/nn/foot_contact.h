@@ -66,9 +66,8 @@ class PlantedHeelTerm {
   // Mean of max(0, threshold - made heel speed) over the (heel, step) pairs where the real heel
   // has lifted (moves at the planted threshold, kPlantedMps or the speed-scaled one, or faster):
   // how far below that threshold a made heel lingers where the data's has left the ground (valid
-  // as above). The complement of
-  // mean_planted_speed: together they charge a contact that starts late or ends late on either
-  // side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
+  // as above). The complement of mean_planted_speed: together they charge a contact that starts
+  // late or ends late on either side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
   torch::Tensor mean_lingering_speed(const HeelSpeeds& speeds, const torch::Tensor& valid = {}) const;
   torch::Tensor mean_lingering_speed(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control,
                                      const torch::Tensor& valid = {}) const {
