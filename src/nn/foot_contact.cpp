@@ -52,18 +52,21 @@ torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const
   return (value * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
+// The planted threshold of each step (m/s): the speed-scaled one [B, T-1, 1], else kPlantedMps.
+torch::Tensor planted_threshold(const PlantedHeelTerm::HeelSpeeds& s) {
+  return s.planted_below_mps.defined() ? s.planted_below_mps
+                                       : torch::full({}, PlantedHeelTerm::kPlantedMps, s.made_mps.options());
+}
+
 }  // namespace
 
 torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
-  const auto planted = s.planted_below_mps.defined() ? s.real_mps < s.planted_below_mps : s.real_mps < kPlantedMps;
-  return mean_over(s.made_mps, planted.to(s.made_mps.dtype()), valid);
+  return mean_over(s.made_mps, (s.real_mps < planted_threshold(s)).to(s.made_mps.dtype()), valid);
 }
 
 torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
-  if (s.planted_below_mps.defined())
-    return mean_over(torch::relu(s.planted_below_mps - s.made_mps),
-                     (s.real_mps >= s.planted_below_mps).to(s.made_mps.dtype()), valid);
-  return mean_over(torch::relu(kPlantedMps - s.made_mps), (s.real_mps >= kPlantedMps).to(s.made_mps.dtype()), valid);
+  const auto threshold = planted_threshold(s);
+  return mean_over(torch::relu(threshold - s.made_mps), (s.real_mps >= threshold).to(s.made_mps.dtype()), valid);
 }
 
 torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,

@@ -318,11 +318,11 @@ torch::Tensor MoGlowImpl::lookahead_features(const torch::Tensor& control, const
   const int64_t longest = control_frames_after();
   std::vector<torch::Tensor> path = {control};
   int64_t known = 0;  // frames of control_after used
-  if (control_after.defined() && control_after.size(1) > 0) {
+  if (control_after.defined()) {
     if (control_after.dim() != 3 || control_after.size(0) != b || control_after.size(2) != c)
       throw Error("moglow: control_after must be [B, K, " + std::to_string(c) + "] matching the control");
     known = std::min(longest, control_after.size(1));
-    path.push_back(control_after.narrow(1, 0, known).to(control.dtype()));
+    if (known > 0) path.push_back(control_after.narrow(1, 0, known).to(control.dtype()));
   }
   // Past what is known the last control repeats; cumulative sums give every window mean at once.
   const torch::Tensor& last = path.back();
