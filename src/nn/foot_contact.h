@@ -74,6 +74,16 @@ class PlantedHeelTerm {
     return mean_lingering_speed(speeds(made, real, control), valid);
   }
 
+  // The phase-free stance term: over every run of `window` consecutive steps (each heel, sliding by
+  // one step) in which the real heel is planted at least once, max(0, the made heel's slowest
+  // speed in the run minus the planted threshold), averaged (m/s). A made heel that stops once in
+  // each such run costs nothing, whatever its phase; one that glides through a stride, as the fast
+  // runs' heels do once drawn free for a second or two, costs its glide. The speeds are [B, n, 2]
+  // as from speeds() (steps of one sequence along dim 1); valid (optional [B, n]) leaves out every
+  // run holding a padded step. A scalar, differentiable in made (through each run's slowest step);
+  // 0 when no run counts (n < window included). Throws mosyn::Error when window < 1.
+  torch::Tensor mean_missed_stance(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {}) const;
+
   // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
   // positions form, which is relative to the root's floor point and heading) over the frames of
   // made, real [B, n, D] (standardised; frame i of one is frame i of the other); valid (optional

@@ -197,3 +197,37 @@ TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
   EXPECT_NEAR(fixed.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.15, 1e-4);
   EXPECT_THROW(PlantedHeelTerm(ctx, "test", -0.1), Error);
 }
+
+// The phase-free stance term by hand over runs of 3 steps (four runs in six steps). Heel 0's data
+// plant at step 1 only, so only the runs 0-2 and 1-3 count: the made heel's slowest step in the
+// first is 0.9 m/s (0.75 above 0.15), and in the second it stops at step 3, two steps after the
+// data's, which costs nothing. Heel 1's data stay planted: the made heel's slowest steps are 0.5,
+// 0.6, 0.7 and 0.8 m/s. The gradient reaches each counted run's slowest step only.
+TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const PlantedHeelTerm term(ctx, "test");
+  const auto opts = torch::dtype(torch::kFloat64);
+  auto made = torch::tensor({1.0, 0.9, 1.1, 0.1, 1.0, 1.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0}, opts)
+                  .reshape({1, 2, 6}).transpose(1, 2).contiguous().requires_grad_(true);  // [1, 6, 2]
+  const auto real = torch::tensor({1.0, 0.05, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, opts)
+                        .reshape({1, 2, 6}).transpose(1, 2).contiguous();
+  const PlantedHeelTerm::HeelSpeeds speeds{made, real, {}};
+  const auto missed = term.mean_missed_stance(speeds, 3);
+  EXPECT_NEAR(missed.item<double>(), (0.75 + 0.35 + 0.45 + 0.55 + 0.65) / 6, 1e-12);
+  missed.backward();
+  const auto grad = made.grad();
+  EXPECT_NEAR(grad[0][1][0].item<double>(), 1.0 / 6, 1e-12);
+  EXPECT_NEAR(grad[0][3][0].item<double>(), 0.0, 1e-12);  // stopped: relu's flat side
+  for (int t = 0; t < 4; ++t) EXPECT_NEAR(grad[0][t][1].item<double>(), 1.0 / 6, 1e-12);
+  for (int t = 4; t < 6; ++t) EXPECT_NEAR(grad[0][t][1].item<double>(), 0.0, 1e-12);
+  // Step 5 padded: the run 3-5 leaves (only heel 1's counted).
+  const auto valid = torch::tensor({1.0, 1.0, 1.0, 1.0, 1.0, 0.0}, opts).reshape({1, 6});
+  EXPECT_NEAR(term.mean_missed_stance(speeds, 3, valid).item<double>(), (0.75 + 0.35 + 0.45 + 0.55) / 5, 1e-12);
+  // A speed-scaled threshold of 0.5 m/s: heel 0's first run 0.4 above, heel 1's 0, 0.1, 0.2, 0.3.
+  const PlantedHeelTerm::HeelSpeeds scaled{made, real, torch::full({1, 6, 1}, 0.5, opts)};
+  EXPECT_NEAR(term.mean_missed_stance(scaled, 3).item<double>(), (0.4 + 0.1 + 0.2 + 0.3) / 6, 1e-12);
+  // Fewer steps than a run: nothing counts. A run of no steps is an error.
+  EXPECT_NEAR(term.mean_missed_stance(speeds, 7).item<double>(), 0.0, 1e-12);
+  EXPECT_THROW(term.mean_missed_stance(speeds, 0), Error);
+}

@@ -6,7 +6,9 @@
 #include <torch/optim/adam.h>
 #include <torch/utils.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/error.h"
 #include "nn/label_features.h"
@@ -632,4 +634,58 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   cfg["lift_off_weight"] = 0.0;
   cfg["heel_speed_weight"] = -1.0;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
+}
+
+// The stance term and phase_locked_frames on the free-running draws (temperature 0: what
+// sampling makes from the window's first tau frames): standing data's heels stay planted, so
+// every run of stance_window_s (3 steps at 30 fps) counts, at the made heel's slowest speed in it
+// above 0.15 m/s; the planted-heel term reads the first phase_locked_frames draws only; training
+// adds weight x each term.
+TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
+  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
+  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
+  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
+  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
+  const int64_t tau = 2, k = 8, locked = 3, window = 3;
+  nlohmann::json cfg = {{"num_steps", 3},        {"hidden", 16},           {"tau", tau},
+                        {"dropout", 0.0},        {"residual", true},       {"foot_contact_weight", 1.0},
+                        {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}, {"stance_weight", 2.0},
+                        {"stance_window_s", window / 30.0}, {"phase_locked_frames", locked}};
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  model->to(torch::kFloat64);
+  torch::manual_seed(1);
+  randomise(*model);
+  SampleRequest req;
+  req.prefix_pose = pose.narrow(1, 0, tau);
+  req.prefix_control = control.narrow(1, 0, tau);
+  req.control = control.narrow(1, tau, k);
+  req.temperature = 0.0;
+  model->eval();
+  const auto drawn = model->sample(req).pose;  // [1, k, D]
+  double planted = 0, missed = 0;
+  for (int heel : {s.find("Foot_L"), s.find("Foot_R")}) {
+    std::vector<double> mps;
+    for (int64_t t = 0; t < k; ++t) {
+      const auto before = t == 0 ? pose[0][tau - 1] : drawn[0][t - 1];  // standing: no root step
+      mps.push_back(std::hypot((drawn[0][t][3 * heel] - before[3 * heel]).item<double>(),
+                               (drawn[0][t][3 * heel + 2] - before[3 * heel + 2]).item<double>()) * ctx.fps);
+    }
+    for (int64_t t = 0; t < locked; ++t) planted += mps[t];
+    for (int64_t r = 0; r + window <= k; ++r)
+      missed += std::max(0.0, *std::min_element(mps.begin() + r, mps.begin() + r + window) - 0.15);
+  }
+  const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
+  EXPECT_NEAR(eval_terms.terms.at("planted_heel_mps").item<double>(), planted / (2 * locked), 1e-6);
+  EXPECT_NEAR(eval_terms.terms.at("missed_stance_mps").item<double>(), missed / (2 * (k - window + 1)), 1e-6);
+  EXPECT_GT(missed, 0.0);
+  model->train();
+  EXPECT_NEAR(model->loss(Batch{pose, control, {}, {}}).loss().item<double>(),
+              eval_terms.loss().item<double>() + planted / (2 * locked) + 2.0 * missed / (2 * (k - window + 1)), 1e-6);
+  EXPECT_DOUBLE_EQ(model->config().at("stance_window_s").get<double>(), window / 30.0);
+  for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"stance_weight", -1.0}, {"stance_window_s", 0.0}, {"phase_locked_frames", -1}}) {
+    nlohmann::json wrong = cfg;
+    wrong[key] = bad;
+    EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << key;
+  }
 }

@@ -95,6 +95,16 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("planted_speed_fraction", &O::planted_speed_fraction,
                  "training: heel terms' planted threshold max(0.15 m/s, this x root speed); 0 = 0.15 m/s", at_least(0.0))
           .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
+          .field("stance_weight", &O::stance_weight,
+                 "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
+                 at_least(0.0))
+          .written_if([](const O& o) { return o.stance_weight > 0; })
+          .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
+                 at_least(0.05))
+          .written_if([](const O& o) { return o.stance_weight > 0; })
+          .field("phase_locked_frames", &O::phase_locked_frames,
+                 "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
+          .written_if([](const O& o) { return o.phase_locked_frames > 0; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -437,12 +447,27 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const auto made_pairs = pairs(prev, made, d);
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
-  const auto valid_pairs = valid.defined() ? valid.narrow(1, 0, n).reshape({-1, 1}) : valid;
   const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
+  const int64_t b = seen.size(0);
+  // [B n, 1, .] pairs -> [B, n, .] sequences; the phase-locked terms read the first `locked` steps.
+  const auto sequence = [&](const torch::Tensor& x, int64_t k) {
+    return x.defined() ? x.reshape({b, n, -1}).narrow(1, 0, k) : x;
+  };
+  const int64_t locked = options_.phase_locked_frames > 0 ? std::min<int64_t>(n, options_.phase_locked_frames) : n;
+  const PlantedHeelTerm::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),
+                                          sequence(speeds.planted_below_mps, locked)};
+  const auto first_valid = valid.defined() ? valid.narrow(1, 0, locked) : valid;
   HeelTerms out;
-  out.planted_mps = planted_heels_.mean_planted_speed(speeds, valid_pairs);
-  if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(speeds, valid_pairs);
-  if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(speeds, valid_pairs);
+  out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
+  if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);
+  if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(first, first_valid);
+  if (options_.stance_weight > 0) {
+    const PlantedHeelTerm::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
+                                          sequence(speeds.planted_below_mps, n)};
+    const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
+    out.missed_stance_mps =
+        planted_heels_.mean_missed_stance(all, window, valid.defined() ? valid.narrow(1, 0, n) : valid);
+  }
   if (options_.pelvis_follow_weight > 0)
     out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, batch.pose.narrow(1, tau, n),
                                                               valid.defined() ? valid.narrow(1, 0, n) : valid);
@@ -505,6 +530,10 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     if (heels.lingering_mps.defined()) {
       added = added + options_.lift_off_weight * heels.lingering_mps;
       out.terms["lingering_heel_mps"] = heels.lingering_mps.detach();
+    }
+    if (heels.missed_stance_mps.defined()) {
+      added = added + options_.stance_weight * heels.missed_stance_mps;
+      out.terms["missed_stance_mps"] = heels.missed_stance_mps.detach();
     }
     if (heels.pelvis_offset_m.defined()) {
       added = added + options_.pelvis_follow_weight * heels.pelvis_offset_m;

@@ -96,9 +96,22 @@ struct MoGlowOptions {
   // stays under 0.15 m/s for more than a frame, so at the fixed threshold the runs barely reach
   // the terms and their footsteps stay soft. 0 = the fixed 0.15 m/s (runs before session 29).
   double planted_speed_fraction = 0.0;
+  // Training only, positions form: weight of the phase-free stance term on the same draws
+  // (PlantedHeelTerm::mean_missed_stance over runs of stride_window_s): each drawn heel must stop
+  // once in every such run in which the data's heel plants, at any phase. Drawn free for a second
+  // or two, the planted-heel term charges a heel whose phase has drifted from the data's as if it
+  // glided; this term does not, so it can run over a long rollout (foot_contact_rollout 40) where
+  // the fast runs' legs stop cycling (models/moglow-lookahead/README.md, session 29). 0 = off.
+  // Logged as missed_stance_mps.
+  double stance_weight = 0.0;
+  double stance_window_s = 1.0;  // longer than a stride of the slowest gait the data holds
+  // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
+  // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
+  int phase_locked_frames = 0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
-    return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0;
+    return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
+           stance_weight > 0;
   }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
@@ -289,8 +302,8 @@ class MoGlowImpl : public MotionModel {
   // seen = the poses conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined =
   // all frames).
   struct HeelTerms {
-    // speed_error_mps, lingering_mps, pelvis_offset_m: undefined when their weight is 0
-    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m;
+    // speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps: undefined when their weight is 0
+    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps;
   };
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
