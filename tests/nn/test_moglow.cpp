@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 #include "core/error.h"
@@ -636,11 +637,43 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
 }
 
+namespace {
+
+// Each heel's ground speed (m/s) over the k draws [1, k, D] of a standing control, the first
+// step from `before` [D] (standing: no root step): per heel, k speeds.
+std::vector<std::vector<double>> drawn_heel_mps(const torch::Tensor& drawn, const torch::Tensor& before,
+                                                const mosyn::Skeleton& s, double fps) {
+  std::vector<std::vector<double>> out;
+  for (int heel : {s.find("Foot_L"), s.find("Foot_R")}) {
+    std::vector<double> mps;
+    for (int64_t t = 0; t < drawn.size(1); ++t) {
+      const auto prev = t == 0 ? before : drawn[0][t - 1];
+      mps.push_back(std::hypot((drawn[0][t][3 * heel] - prev[3 * heel]).item<double>(),
+                               (drawn[0][t][3 * heel + 2] - prev[3 * heel + 2]).item<double>()) * fps);
+    }
+    out.push_back(mps);
+  }
+  return out;
+}
+
+// The stance term by hand: mean over heels and runs of `window` steps of max(0, slowest - 0.15).
+double missed_stance_by_hand(const std::vector<std::vector<double>>& mps, int64_t window) {
+  double sum = 0;
+  int64_t runs = 0;
+  for (const auto& heel : mps)
+    for (size_t r = 0; r + window <= heel.size(); ++r, ++runs)
+      sum += std::max(0.0, *std::min_element(heel.begin() + r, heel.begin() + r + window) - 0.15);
+  return sum / runs;
+}
+
+}  // namespace
+
 // The stance term and phase_locked_frames on the free-running draws (temperature 0: what
 // sampling makes from the window's first tau frames): standing data's heels stay planted, so
 // every run of stance_window_s (3 steps at 30 fps) counts, at the made heel's slowest speed in it
 // above 0.15 m/s; the planted-heel term reads the first phase_locked_frames draws only; training
-// adds weight x each term.
+// adds weight x each term. With cold_start_fraction 1 the draws are what sampling makes without
+// a prefix (the mean pose as history), and the phase-locked term reads no row.
 TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   const mosyn::Skeleton s = mosyn::make_synthetic_biped();
   const ModelContext ctx = mosyn::nn::testing::positions_context(s);
@@ -651,41 +684,43 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
                         {"dropout", 0.0},        {"residual", true},       {"foot_contact_weight", 1.0},
                         {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}, {"stance_weight", 2.0},
                         {"stance_window_s", window / 30.0}, {"phase_locked_frames", locked}};
-  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  model->to(torch::kFloat64);
-  torch::manual_seed(1);
-  randomise(*model);
-  SampleRequest req;
-  req.prefix_pose = pose.narrow(1, 0, tau);
-  req.prefix_control = control.narrow(1, 0, tau);
-  req.control = control.narrow(1, tau, k);
-  req.temperature = 0.0;
-  model->eval();
-  const auto drawn = model->sample(req).pose;  // [1, k, D]
-  double planted = 0, missed = 0;
-  for (int heel : {s.find("Foot_L"), s.find("Foot_R")}) {
-    std::vector<double> mps;
-    for (int64_t t = 0; t < k; ++t) {
-      const auto before = t == 0 ? pose[0][tau - 1] : drawn[0][t - 1];  // standing: no root step
-      mps.push_back(std::hypot((drawn[0][t][3 * heel] - before[3 * heel]).item<double>(),
-                               (drawn[0][t][3 * heel + 2] - before[3 * heel + 2]).item<double>()) * ctx.fps);
-    }
-    for (int64_t t = 0; t < locked; ++t) planted += mps[t];
-    for (int64_t r = 0; r + window <= k; ++r)
-      missed += std::max(0.0, *std::min_element(mps.begin() + r, mps.begin() + r + window) - 0.15);
+  for (const bool cold : {false, true}) {
+    cfg["cold_start_fraction"] = cold ? 1.0 : 0.0;
+    auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+    model->to(torch::kFloat64);
+    torch::manual_seed(1);
+    randomise(*model);
+    SampleRequest req;
+    req.prefix_pose = cold ? torch::zeros_like(pose.narrow(1, 0, tau)) : pose.narrow(1, 0, tau);
+    req.prefix_control = control.narrow(1, 0, tau);
+    req.control = control.narrow(1, tau, k);
+    req.temperature = 0.0;
+    model->eval();
+    const auto drawn = model->sample(req).pose;  // [1, k, D]
+    const auto mps = drawn_heel_mps(drawn, req.prefix_pose[0][tau - 1], s, ctx.fps);
+    const double missed = missed_stance_by_hand(mps, window);
+    const double planted = cold ? 0.0 : (std::accumulate(mps[0].begin(), mps[0].begin() + locked, 0.0) +
+                                         std::accumulate(mps[1].begin(), mps[1].begin() + locked, 0.0)) /
+                                            (2 * locked);
+    const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
+    EXPECT_NEAR(eval_terms.terms.at("planted_heel_mps").item<double>(), planted, 1e-6) << cold;
+    EXPECT_NEAR(eval_terms.terms.at("missed_stance_mps").item<double>(), missed, 1e-6) << cold;
+    EXPECT_GT(missed, 0.0);
+    model->train();
+    EXPECT_NEAR(model->loss(Batch{pose, control, {}, {}}).loss().item<double>(),
+                eval_terms.loss().item<double>() + planted + 2.0 * missed, 1e-6);
   }
-  const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
-  EXPECT_NEAR(eval_terms.terms.at("planted_heel_mps").item<double>(), planted / (2 * locked), 1e-6);
-  EXPECT_NEAR(eval_terms.terms.at("missed_stance_mps").item<double>(), missed / (2 * (k - window + 1)), 1e-6);
-  EXPECT_GT(missed, 0.0);
-  model->train();
-  EXPECT_NEAR(model->loss(Batch{pose, control, {}, {}}).loss().item<double>(),
-              eval_terms.loss().item<double>() + planted / (2 * locked) + 2.0 * missed / (2 * (k - window + 1)), 1e-6);
-  EXPECT_DOUBLE_EQ(model->config().at("stance_window_s").get<double>(), window / 30.0);
+  cfg["cold_start_fraction"] = 0.0;
+  EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("stance_window_s").get<double>(), window / 30.0);
   for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
-           {"stance_weight", -1.0}, {"stance_window_s", 0.0}, {"phase_locked_frames", -1}}) {
+           {"stance_weight", -1.0}, {"stance_window_s", 0.0}, {"phase_locked_frames", -1},
+           {"cold_start_fraction", 1.5}}) {
     nlohmann::json wrong = cfg;
     wrong[key] = bad;
     EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << key;
   }
+  nlohmann::json teacher_forced = cfg;  // a cold start needs free-running draws
+  teacher_forced["cold_start_fraction"] = 0.5;
+  teacher_forced["foot_contact_rollout"] = 0;
+  EXPECT_THROW(create_model("moglow", teacher_forced, ctx), mosyn::Error);
 }

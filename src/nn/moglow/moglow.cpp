@@ -105,6 +105,14 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("phase_locked_frames", &O::phase_locked_frames,
                  "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
           .written_if([](const O& o) { return o.phase_locked_frames > 0; })
+          .field("cold_start_fraction", &O::cold_start_fraction,
+                 "training: share of windows whose heel-term draws start from the mean pose", in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.cold_start_fraction > 0; })
+          .rule([](const O& o) -> std::string {
+            return o.cold_start_fraction > 0 && o.foot_contact_rollout < 1
+                       ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
+                       : "";
+          })
           .rule(lookahead_problem);
   return fields;
 }
@@ -427,11 +435,18 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
                                              const torch::Tensor& valid) {
   const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
   int64_t n = e.z.size(1);
+  const int64_t b = seen.size(0);
+  // 1 for the rows whose draws start from the data's frames, 0 for cold starts (the mean pose).
+  const auto warm_rows =
+      (torch::arange(b, torch::dtype(torch::kInt64).device(seen.device())) >=
+       std::lround(options_.cold_start_fraction * b))
+          .to(seen.dtype());
   torch::Tensor made, prev;
   if (options_.foot_contact_rollout > 0) {
     n = std::min<int64_t>(n, options_.foot_contact_rollout);
-    made = rollout(seen, batch.control, e, n);
-    prev = torch::cat({seen.narrow(1, tau - 1, 1), made.narrow(1, 0, n - 1)}, 1);
+    const auto start = seen * warm_rows.view({b, 1, 1});  // standardised: 0 is the mean pose
+    made = rollout(start, batch.control, e, n);
+    prev = torch::cat({start.narrow(1, tau - 1, 1), made.narrow(1, 0, n - 1)}, 1);
   } else {
     // Latents on the CPU generator, as the dropout mask, for reproducible training on any device.
     auto z = torch::randn(e.z.sizes(), torch::dtype(e.z.scalar_type())).to(e.z.device()) *
@@ -448,7 +463,6 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
   const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
-  const int64_t b = seen.size(0);
   // [B n, 1, .] pairs -> [B, n, .] sequences; the phase-locked terms read the first `locked` steps.
   const auto sequence = [&](const torch::Tensor& x, int64_t k) {
     return x.defined() ? x.reshape({b, n, -1}).narrow(1, 0, k) : x;
@@ -456,7 +470,8 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const int64_t locked = options_.phase_locked_frames > 0 ? std::min<int64_t>(n, options_.phase_locked_frames) : n;
   const PlantedHeelTerm::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),
                                           sequence(speeds.planted_below_mps, locked)};
-  const auto first_valid = valid.defined() ? valid.narrow(1, 0, locked) : valid;
+  const auto first_valid = (valid.defined() ? valid.narrow(1, 0, locked) : torch::ones({b, locked}, seen.options())) *
+                           warm_rows.view({b, 1});
   HeelTerms out;
   out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
   if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);

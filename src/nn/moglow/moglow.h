@@ -108,6 +108,13 @@ struct MoGlowOptions {
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
   int phase_locked_frames = 0;
+  // Training only, with foot_contact_rollout > 0: the share of a batch's windows (its first rows)
+  // whose draws start from the mean pose as history, as sampling without a prefix does (then a
+  // lead-in along the control's first step), instead of from the window's first tau frames. Such a
+  // start has no phase of the data's, so the phase-locked terms leave those rows out; the stance
+  // and pelvis terms read them. From the mean pose at 3 m/s the shipped model's legs stop cycling
+  // within a second or two, from a real run's first half second they do not (session 30). 0 = off.
+  double cold_start_fraction = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
