@@ -6,7 +6,8 @@
 
 namespace mosyn::nn {
 
-PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction)
+PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction,
+                                 bool with_toes)
     : fps_(context.fps), planted_speed_fraction_(planted_speed_fraction) {
   if (!(planted_speed_fraction >= 0)) throw Error(family + ": planted_speed_fraction must not be negative");
   const Skeleton& skeleton = context.skeleton;
@@ -20,6 +21,13 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
   for (const LegChain& leg : find_legs(skeleton)) heels_.push_back(leg.ankle);
   if (heels_.size() != 2)
     throw Error(who + "exactly two legs (ankles named Foot or Ankle); the skeleton has " + std::to_string(heels_.size()));
+  if (with_toes) {
+    for (int k = 0; k < 2; ++k) {
+      const auto toes = skeleton.children(heels_[k]);
+      if (toes.empty()) throw Error(family + ": toe_terms needs a joint below each ankle (the toes)");
+      heels_.push_back(toes.front());
+    }
+  }
   pose_mean_ = torch::tensor(st.pose_mean);
   pose_std_ = torch::tensor(st.pose_std);
   control_mean_ = torch::tensor(st.control_mean);

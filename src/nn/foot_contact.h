@@ -26,9 +26,12 @@ class PlantedHeelTerm {
   // With planted_speed_fraction f > 0 a data heel is planted below max(kPlantedMps, f x the root's
   // ground speed into the frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s
   // for more than one frame (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never),
-  // so at the fixed threshold the runs barely reach the terms. Throws mosyn::Error when the
-  // context cannot give the heels or f is negative.
-  PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction = 0.0);
+  // so at the fixed threshold the runs barely reach the terms. With with_toes the terms read each
+  // ankle's first child joint (the toes) beside the heels, [.., 4] instead of [.., 2] below: the
+  // independent check's skating reads the toes, which slide while a heel stands (session 30).
+  // Throws mosyn::Error when the context cannot give the heels (or toes) or f is negative.
+  PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction = 0.0,
+                  bool with_toes = false);
 
   // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
   // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
@@ -92,7 +95,7 @@ class PlantedHeelTerm {
   torch::Tensor mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                      const torch::Tensor& valid = {}) const;
 
-  const std::vector<int>& heels() const { return heels_; }
+  const std::vector<int>& heels() const { return heels_; }  // the joints read: heels, then toes
 
  private:
   std::vector<int> heels_;

@@ -231,3 +231,27 @@ TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
   EXPECT_NEAR(term.mean_missed_stance(speeds, 7).item<double>(), 0.0, 1e-12);
   EXPECT_THROW(term.mean_missed_stance(speeds, 0), Error);
 }
+
+// with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that
+// slides where the data's stands costs as a heel does, averaged over four joints instead of two.
+TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch real = nn::testing::standing_batch(s, ctx, frames);
+  const PlantedHeelTerm heels(ctx, "test"), both(ctx, "test", 0.0, true);
+  ASSERT_EQ(both.heels().size(), 4u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(both.heels()[k], heels.heels()[k]);
+    EXPECT_EQ(both.heels()[2 + k], s.children(heels.heels()[k]).front());
+  }
+  EXPECT_EQ(s.joint_names[both.heels()[2]].rfind("Toes", 0), 0u);
+  auto made = left_heel_moving(real, s, 0.01);  // the left heel at 0.3 m/s over the second half
+  EXPECT_EQ(both.speeds(made, real.pose, real.control).made_mps.size(2), 4);
+  EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 4), 1e-4);
+  // The left toes slide with it: twice the glide over the same four joints.
+  const int64_t toe_x = 3 * s.find("Toes_L");
+  for (int64_t t = frames / 2; t < frames; ++t) made[0][t][toe_x] += 0.01 * (t - frames / 2 + 1);
+  EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 2 * 10 * 0.3 / (19 * 4), 1e-4);
+  EXPECT_NEAR(heels.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 2), 1e-4);
+}

@@ -712,6 +712,9 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   }
   cfg["cold_start_fraction"] = 0.0;
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("stance_window_s").get<double>(), window / 30.0);
+  cfg["toe_terms"] = true;  // read, kept (its effect: test_foot_contact's WithToesReadsEachAnklesChild)
+  EXPECT_TRUE(create_model("moglow", cfg, ctx)->config().at("toe_terms").get<bool>());
+  cfg.erase("toe_terms");
   for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
            {"stance_weight", -1.0}, {"stance_window_s", 0.0}, {"phase_locked_frames", -1},
            {"cold_start_fraction", 1.5}}) {

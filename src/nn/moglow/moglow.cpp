@@ -113,6 +113,8 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
                        ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
                        : "";
           })
+          .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
+          .written_if([](const O& o) { return o.toe_terms; })
           .rule(lookahead_problem);
   return fields;
 }
@@ -291,7 +293,8 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.heel_terms_on()) planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction);
+  if (options.heel_terms_on())
+    planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction, options.toe_terms);
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));

@@ -115,6 +115,9 @@ struct MoGlowOptions {
   // and pelvis terms read them. From the mean pose at 3 m/s the shipped model's legs stop cycling
   // within a second or two, from a real run's first half second they do not (session 30). 0 = off.
   double cold_start_fraction = 0.0;
+  // Training only: the heel terms above (planted, speed error, lingering, stance) also read the
+  // toes (each ankle's first child joint), so a toe that slides while its heel stands costs too.
+  bool toe_terms = false;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
