@@ -21,12 +21,14 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
   for (const LegChain& leg : find_legs(skeleton)) heels_.push_back(leg.ankle);
   if (heels_.size() != 2)
     throw Error(who + "exactly two legs (ankles named Foot or Ankle); the skeleton has " + std::to_string(heels_.size()));
+  for (int k = 0; k < 2; ++k) {
+    const auto children = skeleton.children(heels_[k]);
+    if (!children.empty()) toes_.push_back(children.front());
+  }
+  if (toes_.size() != 2) toes_.clear();
   if (with_toes) {
-    for (int k = 0; k < 2; ++k) {
-      const auto toes = skeleton.children(heels_[k]);
-      if (toes.empty()) throw Error(family + ": toe_terms needs a joint below each ankle (the toes)");
-      heels_.push_back(toes.front());
-    }
+    if (toes_.empty()) throw Error(family + ": toe_terms needs a joint below each ankle (the toes)");
+    heels_.insert(heels_.end(), toes_.begin(), toes_.end());
   }
   pose_mean_ = torch::tensor(st.pose_mean);
   pose_std_ = torch::tensor(st.pose_std);
@@ -101,6 +103,23 @@ torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, c
   // [B, n, 1], as the heel terms' [B, n, 2]; eps keeps the gradient finite at 0.
   const auto distance = (offset.pow(2).sum(-1, /*keepdim=*/true) + 1e-12).sqrt();
   return mean_over(distance, torch::ones_like(distance), valid);
+}
+
+torch::Tensor PlantedHeelTerm::mean_toe_slide(const torch::Tensor& frames, const torch::Tensor& control,
+                                             const torch::Tensor& valid) const {
+  if (toes_.empty()) throw Error("PlantedHeelTerm: the toe-slide term needs a joint below each ankle (the toes)");
+  const auto opts = frames.options();
+  const auto positions_m = frames * pose_std_.to(opts) + pose_mean_.to(opts);
+  const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
+  const auto speed = joint_ground_speed_mps(positions_m, ctrl, toes_, fps_);  // [B, T-1, 2]
+  std::vector<torch::Tensor> heights;                                        // y is up
+  for (int j : toes_) heights.push_back(positions_m.select(-1, 3 * j + 1));
+  const auto height = torch::stack(heights, -1);                            // [B, T, 2]
+  const auto floor = std::get<0>(height.detach().min(1, /*keepdim=*/true));
+  const auto before = height.narrow(1, 0, height.size(1) - 1);
+  const auto low = torch::sigmoid((floor + kLowToeM - before) / kLowSoftnessM);
+  const auto slide = low * torch::relu(speed - kSlideMps);
+  return mean_over(slide, torch::ones_like(slide), valid);
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {

@@ -95,10 +95,26 @@ class PlantedHeelTerm {
   torch::Tensor mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                      const torch::Tensor& valid = {}) const;
 
+  // The toe-slide term: the independent check's foot skating (../shared/checks) as a cost. Over
+  // every (toe, step t-1 -> t) of drawn sequences, a toe low at frame t-1 (within kLowToeM of its
+  // floor: its lowest height over the sequence, not differentiated) that moves faster than
+  // kSlideMps costs max(0, speed - kSlideMps), weighted by how low it is (a sigmoid of
+  // floor + kLowToeM - height over kLowSoftnessM, so the gradient also lifts a sliding toe).
+  // Averaged over every (toe, step) pair (m/s). frames [B, T, D] and control [B, T, C]
+  // standardised, one sequence per row (the control of frame t is the root's step into it);
+  // valid (optional [B, T-1], 0/1) leaves steps out. The heel terms miss this slide: a toe rolls
+  // around a slow heel, or drags low through the swing (session 30). Throws mosyn::Error when the
+  // skeleton has no joint below an ankle.
+  static constexpr double kLowToeM = 0.01, kSlideMps = 0.10, kLowSoftnessM = 0.003;
+  torch::Tensor mean_toe_slide(const torch::Tensor& frames, const torch::Tensor& control,
+                               const torch::Tensor& valid = {}) const;
+
   const std::vector<int>& heels() const { return heels_; }  // the joints read: heels, then toes
+  const std::vector<int>& toes() const { return toes_; }    // each ankle's first child; empty if none
 
  private:
   std::vector<int> heels_;
+  std::vector<int> toes_;
   double fps_ = 30.0;
   double planted_speed_fraction_ = 0.0;
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]

@@ -3,6 +3,8 @@
 // which steps count.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/error.h"
 #include "nn/foot_contact.h"
 #include "nn_test_util.h"
@@ -254,4 +256,43 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
   for (int64_t t = frames / 2; t < frames; ++t) made[0][t][toe_x] += 0.01 * (t - frames / 2 + 1);
   EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 2 * 10 * 0.3 / (19 * 4), 1e-4);
   EXPECT_NEAR(heels.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 2), 1e-4);
+}
+
+// The toe-slide term by hand (the independent check's skating as a cost): on the floor (its lowest
+// height over the sequence), a toe moving 1 cm a frame at 30 fps costs 0.3 - 0.1 m/s times
+// sigmoid(1 cm / 3 mm); lifted 5 cm it costs almost nothing, as does one under 0.1 m/s.
+TEST(PlantedHeelTerm, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const int frames = 20;
+  const Batch real = nn::testing::standing_batch(s, ctx, frames);
+  const PlantedHeelTerm term(ctx, "test");
+  ASSERT_EQ(term.toes().size(), 2u);
+  EXPECT_EQ(term.toes()[0], s.children(term.heels()[0]).front());
+  const int64_t toe_x = 3 * s.find("Toes_L"), toe_y = toe_x + 1;
+  const auto low = [](double above_floor_m) {
+    return 1.0 / (1.0 + std::exp(-(PlantedHeelTerm::kLowToeM - above_floor_m) / PlantedHeelTerm::kLowSoftnessM));
+  };
+  EXPECT_NEAR(term.mean_toe_slide(real.pose, real.control).item<double>(), 0.0, 1e-6);
+  auto sliding = real.pose.clone();  // the left toe slides over the second half (steps 9..18)
+  for (int64_t t = frames / 2; t < frames; ++t) sliding[0][t][toe_x] += 0.01 * (t - frames / 2 + 1);
+  EXPECT_NEAR(term.mean_toe_slide(sliding, real.control).item<double>(), 10 * 0.2 * low(0) / (19 * 2), 1e-5);
+  // Steps 0..9 only: the first slide, into frame 10.
+  auto first = torch::zeros({1, frames - 1});
+  first.narrow(1, 0, 10).fill_(1.0);
+  EXPECT_NEAR(term.mean_toe_slide(sliding, real.control, first).item<double>(), 0.2 * low(0) / (10 * 2), 1e-5);
+  // Lifted 5 cm while it slides: only the step off the floor (from frame 9) costs.
+  auto lifted = sliding.clone();
+  lifted.narrow(1, frames / 2, frames / 2).select(2, toe_y) += 0.05;
+  EXPECT_NEAR(term.mean_toe_slide(lifted, real.control).item<double>(), (0.2 * low(0) + 9 * 0.2 * low(0.05)) / 38, 1e-5);
+  // Under 0.1 m/s (2 mm a frame at 30 fps, 0.06 m/s): free.
+  auto creeping = real.pose.clone();
+  for (int64_t t = 0; t < frames; ++t) creeping[0][t][toe_x] += 0.002 * t;
+  EXPECT_NEAR(term.mean_toe_slide(creeping, real.control).item<double>(), 0.0, 1e-6);
+  // The gradient moves a sliding low toe both ways out: slower, and up.
+  auto made = sliding.clone().requires_grad_(true);
+  term.mean_toe_slide(made, real.control).backward();
+  EXPECT_GT(made.grad()[0][frames - 1][toe_x].item<double>(), 0.0);   // the last frame back
+  EXPECT_LT(made.grad()[0][frames - 2][toe_y].item<double>(), 0.0);   // a step's start frame up
+  EXPECT_EQ(made.grad()[0][0][toe_x].item<double>(), 0.0);
 }

@@ -727,3 +727,53 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   teacher_forced["foot_contact_rollout"] = 0;
   EXPECT_THROW(create_model("moglow", teacher_forced, ctx), mosyn::Error);
 }
+
+// The toe-slide term on the free-running draws by hand (temperature 0: what sampling makes from
+// the window's first tau frames; standing control, so a toe's ground step is its own): over the
+// steps between draws, each toe's floor its lowest drawn height; training adds weight x term.
+TEST(MoGlow, ToeSlideTermReadsTheDrawnToes) {
+  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
+  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
+  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
+  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
+  const int64_t tau = 2, k = 8;
+  nlohmann::json cfg = {{"num_steps", 3},    {"hidden", 16},     {"tau", tau},
+                        {"dropout", 0.0},    {"residual", true}, {"foot_contact_rollout", k},
+                        {"foot_contact_temperature", 0.0},       {"toe_slide_weight", 3.0}};
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  model->to(torch::kFloat64);
+  torch::manual_seed(1);
+  randomise(*model, 0.3);
+  SampleRequest req;
+  req.prefix_pose = pose.narrow(1, 0, tau);
+  req.prefix_control = control.narrow(1, 0, tau);
+  req.control = control.narrow(1, tau, k);
+  req.temperature = 0.0;
+  model->eval();
+  const auto drawn = model->sample(req).pose;  // [1, k, D]
+  double slide = 0;
+  for (int toe : {s.find("Toes_L"), s.find("Toes_R")}) {
+    double floor = 1e9;
+    for (int64_t t = 0; t < k; ++t) floor = std::min(floor, drawn[0][t][3 * toe + 1].item<double>());
+    for (int64_t t = 1; t < k; ++t) {
+      const double mps = std::hypot((drawn[0][t][3 * toe] - drawn[0][t - 1][3 * toe]).item<double>(),
+                                    (drawn[0][t][3 * toe + 2] - drawn[0][t - 1][3 * toe + 2]).item<double>()) * ctx.fps;
+      const double above = drawn[0][t - 1][3 * toe + 1].item<double>() - floor;
+      slide += std::max(0.0, mps - 0.1) / (1.0 + std::exp(-(0.01 - above) / 0.003));
+    }
+  }
+  slide /= 2.0 * (k - 1);
+  const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
+  EXPECT_NEAR(eval_terms.terms.at("toe_slide_mps").item<double>(), slide, 1e-6);
+  EXPECT_GT(slide, 0.0);
+  model->train();
+  EXPECT_NEAR(model->loss(Batch{pose, control, {}, {}}).loss().item<double>(), eval_terms.loss().item<double>() + 3.0 * slide,
+              1e-6);
+  EXPECT_DOUBLE_EQ(model->config().at("toe_slide_weight").get<double>(), 3.0);
+  for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{{"toe_slide_weight", -1.0},
+                                                                                   {"foot_contact_rollout", 0}}) {
+    nlohmann::json wrong = cfg;  // negative; and no free-running draws to read
+    wrong[key] = bad;
+    EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << key;
+  }
+}

@@ -115,6 +115,14 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           })
           .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
           .written_if([](const O& o) { return o.toe_terms; })
+          .field("toe_slide_weight", &O::toe_slide_weight,
+                 "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
+          .written_if([](const O& o) { return o.toe_slide_weight > 0; })
+          .rule([](const O& o) -> std::string {
+            return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
+                       ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
+                       : "";
+          })
           .rule(lookahead_problem);
   return fields;
 }
@@ -486,6 +494,12 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
     out.missed_stance_mps =
         planted_heels_.mean_missed_stance(all, window, valid.defined() ? valid.narrow(1, 0, n) : valid);
   }
+  if (options_.toe_slide_weight > 0 && n > 1) {
+    // Along each row's own draws; the first step (from the history) is left out, as a cold start's
+    // mean pose is no frame of the motion.
+    out.toe_slide_mps = planted_heels_.mean_toe_slide(made, batch.control.narrow(1, tau, n),
+                                                      valid.defined() ? valid.narrow(1, 1, n - 1) : valid);
+  }
   if (options_.pelvis_follow_weight > 0)
     out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, batch.pose.narrow(1, tau, n),
                                                               valid.defined() ? valid.narrow(1, 0, n) : valid);
@@ -552,6 +566,10 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     if (heels.missed_stance_mps.defined()) {
       added = added + options_.stance_weight * heels.missed_stance_mps;
       out.terms["missed_stance_mps"] = heels.missed_stance_mps.detach();
+    }
+    if (heels.toe_slide_mps.defined()) {
+      added = added + options_.toe_slide_weight * heels.toe_slide_mps;
+      out.terms["toe_slide_mps"] = heels.toe_slide_mps.detach();
     }
     if (heels.pelvis_offset_m.defined()) {
       added = added + options_.pelvis_follow_weight * heels.pelvis_offset_m;

@@ -118,10 +118,16 @@ struct MoGlowOptions {
   // Training only: the heel terms above (planted, speed error, lingering, stance) also read the
   // toes (each ankle's first child joint), so a toe that slides while its heel stands costs too.
   bool toe_terms = false;
+  // Training only, positions form, with foot_contact_rollout > 0: weight of the toe-slide term on
+  // every draw (PlantedHeelTerm::mean_toe_slide: a toe within 1 cm of its floor moving faster than
+  // 0.1 m/s costs the excess, as the independent check counts foot skating). Continued training
+  // moved the slide from the heels to the toes, which the heel terms do not see (session 30).
+  // 0 = off. Logged as toe_slide_mps.
+  double toe_slide_weight = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
-           stance_weight > 0;
+           stance_weight > 0 || toe_slide_weight > 0;
   }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
@@ -312,8 +318,8 @@ class MoGlowImpl : public MotionModel {
   // seen = the poses conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined =
   // all frames).
   struct HeelTerms {
-    // speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps: undefined when their weight is 0
-    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps;
+    // all but planted_mps: undefined when their weight is 0
+    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps;
   };
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
