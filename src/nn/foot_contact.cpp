@@ -117,7 +117,9 @@ torch::Tensor PlantedHeelTerm::mean_toe_slide(const torch::Tensor& frames, const
   const auto height = torch::stack(heights, -1);                            // [B, T, 2]
   const auto floor = std::get<0>(height.detach().min(1, /*keepdim=*/true));
   const auto before = height.narrow(1, 0, height.size(1) - 1);
-  const auto low = torch::sigmoid((floor + kLowToeM - before) / kLowSoftnessM);
+  // Not differentiated: lifting a toe off the floor is no cure (run 34, session 31: the feet hovered
+  // and the heels glided), only slowing it is.
+  const auto low = torch::sigmoid((floor + kLowToeM - before.detach()) / kLowSoftnessM);
   const auto slide = low * torch::relu(speed - kSlideMps);
   return mean_over(slide, torch::ones_like(slide), valid);
 }

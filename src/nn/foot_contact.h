@@ -99,7 +99,8 @@ class PlantedHeelTerm {
   // every (toe, step t-1 -> t) of drawn sequences, a toe low at frame t-1 (within kLowToeM of its
   // floor: its lowest height over the sequence, not differentiated) that moves faster than
   // kSlideMps costs max(0, speed - kSlideMps), weighted by how low it is (a sigmoid of
-  // floor + kLowToeM - height over kLowSoftnessM, so the gradient also lifts a sliding toe).
+  // floor + kLowToeM - height over kLowSoftnessM, not differentiated: the gradient slows a low
+  // toe and never lifts it, as a term that could lift toes made the feet hover, session 31).
   // Averaged over every (toe, step) pair (m/s). frames [B, T, D] and control [B, T, C]
   // standardised, one sequence per row (the control of frame t is the root's step into it);
   // valid (optional [B, T-1], 0/1) leaves steps out. The heel terms miss this slide: a toe rolls

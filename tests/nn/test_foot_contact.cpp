@@ -260,7 +260,8 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
 
 // The toe-slide term by hand (the independent check's skating as a cost): on the floor (its lowest
 // height over the sequence), a toe moving 1 cm a frame at 30 fps costs 0.3 - 0.1 m/s times
-// sigmoid(1 cm / 3 mm); lifted 5 cm it costs almost nothing, as does one under 0.1 m/s.
+// sigmoid(1 cm / 3 mm); lifted 5 cm it costs almost nothing, as does one under 0.1 m/s; the
+// gradient slows the toe and never lifts it.
 TEST(PlantedHeelTerm, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
@@ -289,10 +290,10 @@ TEST(PlantedHeelTerm, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
   auto creeping = real.pose.clone();
   for (int64_t t = 0; t < frames; ++t) creeping[0][t][toe_x] += 0.002 * t;
   EXPECT_NEAR(term.mean_toe_slide(creeping, real.control).item<double>(), 0.0, 1e-6);
-  // The gradient moves a sliding low toe both ways out: slower, and up.
+  // The gradient slows a sliding low toe and does not lift it.
   auto made = sliding.clone().requires_grad_(true);
   term.mean_toe_slide(made, real.control).backward();
   EXPECT_GT(made.grad()[0][frames - 1][toe_x].item<double>(), 0.0);   // the last frame back
-  EXPECT_LT(made.grad()[0][frames - 2][toe_y].item<double>(), 0.0);   // a step's start frame up
+  EXPECT_EQ(made.grad()[0][frames - 2][toe_y].item<double>(), 0.0);
   EXPECT_EQ(made.grad()[0][0][toe_x].item<double>(), 0.0);
 }
