@@ -105,23 +105,34 @@ torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, c
   return mean_over(distance, torch::ones_like(distance), valid);
 }
 
-torch::Tensor PlantedHeelTerm::mean_toe_slide(const torch::Tensor& frames, const torch::Tensor& control,
-                                             const torch::Tensor& valid) const {
+torch::Tensor PlantedHeelTerm::toe_slide_per_row(const torch::Tensor& frames, const torch::Tensor& control,
+                                                const torch::Tensor& valid) const {
   if (toes_.empty()) throw Error("PlantedHeelTerm: the toe-slide term needs a joint below each ankle (the toes)");
   const auto opts = frames.options();
   const auto positions_m = frames * pose_std_.to(opts) + pose_mean_.to(opts);
   const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
   const auto speed = joint_ground_speed_mps(positions_m, ctrl, toes_, fps_);  // [B, T-1, 2]
   std::vector<torch::Tensor> heights;                                        // y is up
-  for (int j : toes_) heights.push_back(positions_m.select(-1, 3 * j + 1));
-  const auto height = torch::stack(heights, -1);                            // [B, T, 2]
-  const auto floor = std::get<0>(height.detach().min(1, /*keepdim=*/true));
-  const auto before = height.narrow(1, 0, height.size(1) - 1);
+  for (int j : toes_) heights.push_back(positions_m.select(-1, 3 * j + 1).detach());
+  const auto height = torch::stack(heights, -1);  // [B, T, 2]
+  const auto floor = std::get<0>(height.min(1, /*keepdim=*/true));
   // Not differentiated: lifting a toe off the floor is no cure (run 34, session 31: the feet hovered
   // and the heels glided), only slowing it is.
-  const auto low = torch::sigmoid((floor + kLowToeM - before.detach()) / kLowSoftnessM);
-  const auto slide = low * torch::relu(speed - kSlideMps);
-  return mean_over(slide, torch::ones_like(slide), valid);
+  const auto low = torch::sigmoid((floor + kLowToeM - height.narrow(1, 0, height.size(1) - 1)) / kLowSoftnessM);
+  auto counted = torch::ones_like(speed);
+  if (valid.defined()) counted = counted * valid.to(opts).unsqueeze(-1);
+  return (low * torch::relu(speed - kSlideMps) * counted).sum({1, 2}) / counted.sum({1, 2}).clamp_min(1.0);
+}
+
+torch::Tensor PlantedHeelTerm::mean_toe_slide(const torch::Tensor& frames, const torch::Tensor& control,
+                                             const torch::Tensor& valid) const {
+  return toe_slide_per_row(frames, control, valid).mean();
+}
+
+torch::Tensor PlantedHeelTerm::mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& real,
+                                                    const torch::Tensor& control, const torch::Tensor& valid) const {
+  const auto data = toe_slide_per_row(real.to(made.options()), control, valid).detach();
+  return torch::relu(toe_slide_per_row(made, control, valid) - data).mean();
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {

@@ -95,20 +95,28 @@ class PlantedHeelTerm {
   torch::Tensor mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                      const torch::Tensor& valid = {}) const;
 
-  // The toe-slide term: the independent check's foot skating (../shared/checks) as a cost. Over
-  // every (toe, step t-1 -> t) of drawn sequences, a toe low at frame t-1 (within kLowToeM of its
-  // floor: its lowest height over the sequence, not differentiated) that moves faster than
-  // kSlideMps costs max(0, speed - kSlideMps), weighted by how low it is (a sigmoid of
-  // floor + kLowToeM - height over kLowSoftnessM, not differentiated: the gradient slows a low
-  // toe and never lifts it, as a term that could lift toes made the feet hover, session 31).
-  // Averaged over every (toe, step) pair (m/s). frames [B, T, D] and control [B, T, C]
-  // standardised, one sequence per row (the control of frame t is the root's step into it);
-  // valid (optional [B, T-1], 0/1) leaves steps out. The heel terms miss this slide: a toe rolls
-  // around a slow heel, or drags low through the swing (session 30). Throws mosyn::Error when the
-  // skeleton has no joint below an ankle.
+  // The toe slide: the independent check's foot skating (../shared/checks) as a cost. Over every
+  // (toe, step t-1 -> t) of a sequence, a toe low at frame t-1 (within kLowToeM of its floor: its
+  // lowest height over the sequence) that moves faster than kSlideMps counts max(0, speed -
+  // kSlideMps), weighted by how low it is (a sigmoid of floor + kLowToeM - height over
+  // kLowSoftnessM). The weight is not differentiated: the gradient slows a low toe and never lifts
+  // it (a term that could lift toes made the feet hover, session 31). frames [B, T, D] and control
+  // [B, T, C] standardised, one sequence per row (the control of frame t is the root's step into
+  // it); valid (optional [B, T-1], 0/1) leaves steps out. Throws mosyn::Error when the skeleton has
+  // no joint below an ankle.
   static constexpr double kLowToeM = 0.01, kSlideMps = 0.10, kLowSoftnessM = 0.003;
+  // Each row's mean over its (toe, step) pairs (m/s), [B]; 0 for a row with no valid step.
+  torch::Tensor toe_slide_per_row(const torch::Tensor& frames, const torch::Tensor& control,
+                                  const torch::Tensor& valid = {}) const;
+  // The mean of toe_slide_per_row over the rows (m/s), a scalar.
   torch::Tensor mean_toe_slide(const torch::Tensor& frames, const torch::Tensor& control,
                                const torch::Tensor& valid = {}) const;
+  // The toe-slide term: per row, how much more the made toes slide than the real ones of the same
+  // window (max(0, made - real) of toe_slide_per_row; real toes slide too, about a tenth of the
+  // frames of a Bandai-Namco walk), averaged over rows (m/s). Charging all of it pushed the model
+  // off the data and wrecked the gait within 100 steps (session 31). made, real [B, T, D].
+  torch::Tensor mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& real,
+                                      const torch::Tensor& control, const torch::Tensor& valid = {}) const;
 
   const std::vector<int>& heels() const { return heels_; }  // the joints read: heels, then toes
   const std::vector<int>& toes() const { return toes_; }    // each ankle's first child; empty if none

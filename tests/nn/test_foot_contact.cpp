@@ -296,4 +296,15 @@ TEST(PlantedHeelTerm, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
   EXPECT_GT(made.grad()[0][frames - 1][toe_x].item<double>(), 0.0);   // the last frame back
   EXPECT_EQ(made.grad()[0][frames - 2][toe_y].item<double>(), 0.0);
   EXPECT_EQ(made.grad()[0][0][toe_x].item<double>(), 0.0);
+  // The term charges what the made toes slide beyond the data's of the same row: two rows, the
+  // first made sliding where the data stand, the second standing where the data slide.
+  const auto made_rows = torch::cat({sliding, real.pose}), real_rows = torch::cat({real.pose, sliding});
+  const auto control_rows = torch::cat({real.control, real.control});
+  const auto per_row = term.toe_slide_per_row(made_rows, control_rows);
+  ASSERT_EQ(per_row.size(0), 2);
+  EXPECT_NEAR(per_row[0].item<double>(), 10 * 0.2 * low(0) / 38, 1e-5);
+  EXPECT_NEAR(per_row[1].item<double>(), 0.0, 1e-6);
+  EXPECT_NEAR(term.mean_excess_toe_slide(made_rows, real_rows, control_rows).item<double>(), 10 * 0.2 * low(0) / 38 / 2,
+              1e-5);
+  EXPECT_NEAR(term.mean_excess_toe_slide(sliding, sliding, real.control).item<double>(), 0.0, 1e-9);
 }

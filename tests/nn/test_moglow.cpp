@@ -730,7 +730,8 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
 
 // The toe-slide term on the free-running draws by hand (temperature 0: what sampling makes from
 // the window's first tau frames; standing control, so a toe's ground step is its own): over the
-// steps between draws, each toe's floor its lowest drawn height; training adds weight x term.
+// steps between draws, each toe's floor its lowest drawn height; the standing data's toes do not
+// slide, so all of it is the draws' excess; training adds weight x term.
 TEST(MoGlow, ToeSlideTermReadsTheDrawnToes) {
   const mosyn::Skeleton s = mosyn::make_synthetic_biped();
   const ModelContext ctx = mosyn::nn::testing::positions_context(s);

@@ -497,8 +497,9 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
     // mean pose is no frame of the motion.
-    out.toe_slide_mps = planted_heels_.mean_toe_slide(made, batch.control.narrow(1, tau, n),
-                                                      valid.defined() ? valid.narrow(1, 1, n - 1) : valid);
+    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(made, batch.pose.narrow(1, tau, n),
+                                                             batch.control.narrow(1, tau, n),
+                                                             valid.defined() ? valid.narrow(1, 1, n - 1) : valid);
   }
   if (options_.pelvis_follow_weight > 0)
     out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, batch.pose.narrow(1, tau, n),

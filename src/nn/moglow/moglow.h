@@ -119,8 +119,9 @@ struct MoGlowOptions {
   // toes (each ankle's first child joint), so a toe that slides while its heel stands costs too.
   bool toe_terms = false;
   // Training only, positions form, with foot_contact_rollout > 0: weight of the toe-slide term on
-  // every draw (PlantedHeelTerm::mean_toe_slide: a toe within 1 cm of its floor moving faster than
-  // 0.1 m/s costs the excess, as the independent check counts foot skating). Continued training
+  // every draw (PlantedHeelTerm::mean_excess_toe_slide: a toe within 1 cm of its floor moving faster
+  // than 0.1 m/s counts the excess, as the independent check counts foot skating; each row costs
+  // what its draws slide more than the data's frames of the same window). Continued training
   // moved the slide from the heels to the toes, which the heel terms do not see (session 30).
   // 0 = off. Logged as toe_slide_mps.
   double toe_slide_weight = 0.0;
