@@ -93,6 +93,16 @@ void add_prepare_command(CLI::App* data_cmd, Action* action) {
                    "walks played faster widen the speeds without a second cadence at speeds the takes cover")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 100.0));
+  prep->add_option("--rest-ends", o.rest_hold_s,
+                   "add two copies of every clip, one starting from rest and one coming to rest at its "
+                   "double-support frame, the still pose held this many seconds (0 = none): takes that begin and "
+                   "end in stride teach no stop")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 60.0));
+  prep->add_option("--rest-ramp", o.rest_ramp_s,
+                   "--rest-ends: seconds over which the speed falls to rest (rises from it), linearly")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   prep->add_option("--retime-max-speed", o.retime_max_speed_mps,
                    "retime only clips whose mean root speed is at most this many m/s (0 = no bound), e.g. to leave "
                    "runs out")

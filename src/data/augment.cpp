@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
+#include "core/foot_lock.h"
+#include "core/kinematics.h"
 #include "core/mirror.h"
 #include "core/rotation.h"
 #include "core/subset.h"
@@ -223,6 +226,79 @@ Motion retime(const Motion& motion, double factor) {
   Motion faster = motion;
   faster.fps = motion.fps * factor;  // the same frames, played at factor times the rate
   return resample(faster, motion.fps);
+}
+
+namespace {
+
+// The pose at source time t_s (seconds, clamped into the motion), interpolated as resample does,
+// written into frame k of out.
+void pose_at(const Motion& motion, double t_s, Motion* out, int k) {
+  const double s = std::clamp(t_s * motion.fps, 0.0, static_cast<double>(motion.num_frames - 1));
+  const int a = static_cast<int>(std::floor(s));
+  const int b = std::min(a + 1, motion.num_frames - 1);
+  const double w = s - a;
+  for (int j = 0; j < motion.num_joints; ++j) {
+    const Eigen::Quaterniond qa = motion.rotation(a, j);
+    const Eigen::Quaterniond qb = align_hemisphere(motion.rotation(b, j), qa);
+    out->rotation(k, j) = qa.slerp(w, qb).normalized();
+    out->translation(k, j) = (1.0 - w) * motion.translation(a, j) + w * motion.translation(b, j);
+  }
+}
+
+}  // namespace
+
+int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end) {
+  const auto legs = find_legs(skeleton);
+  if (legs.size() != 2 || motion.num_frames < 4) return -1;
+  const WorldPoses world = forward_kinematics(skeleton, motion);
+  const int half = motion.num_frames / 2;
+  const int first = end == RestEnd::kStart ? 1 : half, last = end == RestEnd::kStart ? half : motion.num_frames - 1;
+  int best = -1;
+  double best_speed = std::numeric_limits<double>::infinity();
+  for (int t = first; t <= last; ++t) {
+    double speed = 0;  // skeleton units per frame; the larger of the two ankles'
+    for (const LegChain& leg : legs) {
+      Eigen::Vector3d step = world.position(t, leg.ankle) - world.position(t - 1, leg.ankle);
+      step[skeleton.up_axis] = 0;
+      speed = std::max(speed, step.norm());
+    }
+    if (speed < best_speed) best_speed = speed, best = t;
+  }
+  return best;
+}
+
+Motion come_to_rest(const Motion& motion, int rest_frame, RestEnd end, double ramp_s, double hold_s) {
+  if (!(ramp_s >= 0) || !std::isfinite(ramp_s) || !(hold_s >= 0) || !std::isfinite(hold_s))
+    throw Error("come_to_rest: ramp and hold must be non-negative seconds");
+  if (rest_frame < 0 || rest_frame >= motion.num_frames)
+    throw Error("come_to_rest: rest frame " + std::to_string(rest_frame) + " outside the motion's " +
+                std::to_string(motion.num_frames) + " frames");
+  const double fps = motion.fps, rest_s = rest_frame / fps;
+  const double moving_s = end == RestEnd::kEnd ? rest_s : motion.duration_s() - rest_s;  // source time on the moving side
+  if (moving_s < ramp_s / 2 - 1e-9)
+    throw Error("come_to_rest: " + std::to_string(moving_s) + " s of motion beside the rest frame, the ramp needs " +
+                std::to_string(ramp_s / 2));
+  // Output time u -> source time, for kEnd: free until u0, the ramp (rate 1 -> 0), then held.
+  const double u0 = moving_s - ramp_s / 2, total_s = u0 + ramp_s + hold_s;
+  const auto source_s = [&](double u) {
+    if (u <= u0) return u;
+    const double v = std::min(u - u0, ramp_s);
+    return u0 + v - (ramp_s > 0 ? v * v / (2 * ramp_s) : 0.0);
+  };
+  Motion out;
+  out.fps = fps;
+  out.num_joints = motion.num_joints;
+  out.num_frames = static_cast<int>(std::floor(total_s * fps + 1e-9)) + 1;
+  out.rotations.resize(static_cast<size_t>(out.num_frames) * out.num_joints);
+  out.translations.resize(out.rotations.size());
+  for (int k = 0; k < out.num_frames; ++k) {
+    if (end == RestEnd::kEnd) {
+      pose_at(motion, source_s(k / fps), &out, k);
+    } else {  // the kEnd mapping run backwards from the motion's last frame
+      pose_at(motion, motion.duration_s() - source_s(total_s - k / fps), &out, k);
+    }
+  }
+  return out;
 }
 
 MirrorPlan plan_mirror(const Skeleton& skeleton) {

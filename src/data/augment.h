@@ -87,6 +87,29 @@ Motion reverse_frames(const Motion& motion);
 // is positive and finite.
 Motion retime(const Motion& motion, double factor);
 
+// ---- Starts and stops ----------------------------------------------------------------------
+
+// Which end of a motion comes to rest (come_to_rest).
+enum class RestEnd { kStart, kEnd };
+
+// The frame in the motion's first (kStart) or last (kEnd) half where both feet are slowest, i.e.
+// double support: the larger of the two ankles' (core find_legs) horizontal speeds into the frame
+// is least. -1 when the skeleton has not two legs or the motion has fewer than 4 frames.
+int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end);
+
+// The motion brought to rest at one end, a walk (or run) stopping in, or starting from, its
+// stance at rest_frame. kEnd: it plays at its own rate until ramp_s / 2 seconds of source time
+// before rest_frame, then slows linearly to a standstill at rest_frame over ramp_s seconds and
+// holds that pose for hold_s (its frames after rest_frame are dropped). kStart, the same reversed
+// in time: rest_frame held for hold_s, then speeding up linearly over ramp_s to its own rate (its
+// frames before rest_frame dropped). A planted foot stays planted through the ramp, the swing
+// slows, the body's ground speed falls (rises) linearly: a stop in one or two slowing steps, as
+// people stop, where the Bandai-Namco locomotion takes begin and end in stride, so a model trained
+// on them glides to a halt at the end of a drawn path. Frames at the motion's rate, interpolated
+// as resample does. Throws mosyn::Error when ramp_s or hold_s is negative or not finite,
+// rest_frame lies outside the motion, or less than ramp_s / 2 of motion lies on its moving side.
+Motion come_to_rest(const Motion& motion, int rest_frame, RestEnd end, double ramp_s, double hold_s);
+
 // How a skeleton mirrors: the left/right partner of every joint (core/mirror.h mirror_map), the
 // world reflection axis (core default_mirror_axis: X for Y-up) and, per joint, the axis of the
 // reflection P_j in that joint's own frame that maps its partner's child offsets onto its own.

@@ -232,6 +232,10 @@ json info_to_json(const DatasetInfo& info) {
     j["augmentation"]["retime_min_speed_mps"] = info.augment_retime_min_speed_mps;
   if (info.augment_retime_max_speed_mps > 0)
     j["augmentation"]["retime_max_speed_mps"] = info.augment_retime_max_speed_mps;
+  if (info.augment_rest_hold_s > 0) {
+    j["augmentation"]["rest_hold_s"] = info.augment_rest_hold_s;
+    j["augmentation"]["rest_ramp_s"] = info.augment_rest_ramp_s;
+  }
   if (!info.stats_from.empty()) j["stats_from"] = info.stats_from;
   if (!info.split_from.empty()) j["split_from"] = info.split_from;
   j["tpose"] = info.tpose;
@@ -291,6 +295,11 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
     for (double v : {info.augment_retime_min_speed_mps, info.augment_retime_max_speed_mps})
       if (!(v >= 0) || !std::isfinite(v))
         throw ParseError(file, 0, "augmentation.retime_min_speed_mps / retime_max_speed_mps must be 0 or positive");
+    info.augment_rest_hold_s = optional_key(a, "rest_hold_s", 0.0, file);
+    info.augment_rest_ramp_s = optional_key(a, "rest_ramp_s", 0.0, file);
+    for (double v : {info.augment_rest_hold_s, info.augment_rest_ramp_s})
+      if (!(v >= 0) || !std::isfinite(v))
+        throw ParseError(file, 0, "augmentation.rest_hold_s / rest_ramp_s must be 0 or positive seconds");
   }
   info.tpose = optional_key(j, "tpose", std::string("auto"), file);
   info.stats_from = optional_key(j, "stats_from", std::string(), file);
@@ -356,7 +365,7 @@ std::string format_clip_cache(const std::vector<ClipRecord>& clips, int pose_dim
     out += c.source;
     put<int32_t>(&out, c.content);
     put<int32_t>(&out, c.style);
-    put<uint8_t>(&out, static_cast<uint8_t>((c.mirrored ? 1 : 0) | (c.reversed ? 2 : 0) | (c.retimed ? 4 : 0)));
+    put<uint8_t>(&out, static_cast<uint8_t>((c.mirrored ? 1 : 0) | (c.reversed ? 2 : 0) | (c.retimed ? 4 : 0) | (c.at_rest ? 8 : 0)));
     put<uint32_t>(&out, static_cast<uint32_t>(c.num_frames));
     out.append(reinterpret_cast<const char*>(c.pose.data()), c.pose.size() * sizeof(float));
     out.append(reinterpret_cast<const char*>(c.control.data()), c.control.size() * sizeof(float));
@@ -404,6 +413,7 @@ std::vector<ClipRecord> parse_clip_cache(const std::string& bytes, int pose_dim,
     c.mirrored = flags & 1;
     c.reversed = flags & 2;
     c.retimed = flags & 4;
+    c.at_rest = flags & 8;
     c.num_frames = static_cast<int>(r.get<uint32_t>("frame count"));
     if (c.num_frames < 0) throw ParseError(file, 0, "clip " + std::to_string(i) + " has a bad frame count");
     r.get_floats(&c.pose, static_cast<uint64_t>(c.num_frames) * pose_dim, "pose data");
@@ -591,6 +601,9 @@ std::string dataset_summary(const Dataset& dataset) {
       out << " (clips " << (lo > 0 ? "from " + format_speed(lo) : std::string()) << (lo > 0 && hi > 0 ? " " : "")
           << (hi > 0 ? "up to " + format_speed(hi) : std::string()) << ")";
   }
+  if (info.augment_rest_hold_s > 0)
+    out << ", starts and stops at rest (" << format_seconds(info.augment_rest_ramp_s) << " ramp, "
+        << format_seconds(info.augment_rest_hold_s) << " held)";
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";
   if (!info.split_from.empty()) out << "split:       kept from " << info.split_from << "\n";

@@ -19,7 +19,7 @@
 //   num_clips times:
 //     u32 source length, bytes (UTF-8, no terminator)
 //     i32 content, i32 style     (-1 = unlabelled)
-//     u8  flags                  (bit 0 mirrored, bit 1 reversed, bit 2 retimed)
+//     u8  flags                  (bit 0 mirrored, bit 1 reversed, bit 2 retimed, bit 3 at rest)
 //     u32 num_frames
 //     f32 pose[num_frames * pose_dim], f32 control[num_frames * control_dim]
 //   u64      FNV-1a 64 hash of every byte before it
@@ -47,12 +47,13 @@ struct ClipRecord {
   bool mirrored = false;    // augmentation flags
   bool reversed = false;
   bool retimed = false;     // played faster or slower (PrepareOptions::retime_factors)
+  bool at_rest = false;     // starts or stops at rest (PrepareOptions::rest_hold_s)
   int num_frames = 0;
   std::vector<float> pose;     // [T, pose_dim]
   std::vector<float> control;  // [T, control_dim]
 
   // A copy made by augmentation rather than a take as recorded.
-  bool augmented() const { return mirrored || reversed || retimed; }
+  bool augmented() const { return mirrored || reversed || retimed || at_rest; }
 };
 
 // Smallest standard deviation stored (feature units: metres, radians, 6D components). Constant
@@ -97,6 +98,8 @@ struct DatasetInfo {
   std::vector<double> augment_retime;     // playback-speed factors of the retimed copies (empty: none)
   // Only clips whose mean root speed lies in [min, max] were retimed (0: no bound).
   double augment_retime_min_speed_mps = 0, augment_retime_max_speed_mps = 0;
+  // Copies starting from and coming to rest (PrepareOptions::rest_hold_s; 0: none) and their ramp.
+  double augment_rest_hold_s = 0, augment_rest_ramp_s = 0;
   // Where stats.json came from when not computed on this dataset's training split
   // (PrepareOptions::stats_from); empty otherwise.
   std::string stats_from;

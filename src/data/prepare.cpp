@@ -143,6 +143,8 @@ void check_options(const PrepareOptions& o) {
     throw Error("prepare: retime_min_speed_mps and retime_max_speed_mps must be 0 (no bound) or positive");
   if (o.retime_max_speed_mps > 0 && o.retime_max_speed_mps < o.retime_min_speed_mps)
     throw Error("prepare: retime_max_speed_mps is below retime_min_speed_mps: no clip would be retimed");
+  if (!(o.rest_hold_s >= 0) || !std::isfinite(o.rest_hold_s) || !(o.rest_ramp_s >= 0) || !std::isfinite(o.rest_ramp_s))
+    throw Error("prepare: rest_hold_s and rest_ramp_s must be 0 or positive seconds");
 }
 
 // Lists and filters every input; builds the shared vocabularies and the file items.
@@ -296,6 +298,10 @@ DatasetInfo describe_dataset(const PrepareOptions& o, DatasetInfo info, const Sk
     info.augment_retime_min_speed_mps = o.retime_min_speed_mps;
     info.augment_retime_max_speed_mps = o.retime_max_speed_mps;
   }
+  if (o.rest_hold_s > 0) {
+    info.augment_rest_hold_s = o.rest_hold_s;
+    info.augment_rest_ramp_s = o.rest_ramp_s;
+  }
   info.tpose = to_string(o.tpose);
   info.drop_joint_patterns = o.drop_joint_patterns;
   info.keep_joint_patterns = o.keep_joint_patterns;
@@ -360,6 +366,9 @@ double mean_root_speed_mps(const Skeleton& skeleton, const Motion& motion, int r
   return distance * skeleton.meters_per_unit * motion.fps / (motion.num_frames - 1);
 }
 
+// Clips slower than this (m/s, mean root speed) get no copies at rest: they stand already.
+constexpr double kRestMinSpeedMps = 0.3;
+
 // Whether a clip gets the dataset's retimed copies: its mean root speed lies in the band of
 // DatasetInfo::augment_retime_min/max_speed_mps (0: no bound).
 bool retime_band_holds(const DatasetInfo& info, const Clip& clip) {
@@ -381,7 +390,7 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
     return other >= 0 ? other : id;
   };
   std::vector<ClipRecord> records;
-  auto add = [&](const Motion& motion, bool mirrored, bool reversed, bool retimed) {
+  auto add = [&](const Motion& motion, bool mirrored, bool reversed, bool retimed, bool at_rest = false) {
     ClipRecord r;
     r.source = item.source;
     r.content = mirrored ? mirrored_id(item.content, info.content_labels) : item.content;
@@ -389,6 +398,7 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
     r.mirrored = mirrored;
     r.reversed = reversed;
     r.retimed = retimed;
+    r.at_rest = at_rest;
     r.num_frames = motion.num_frames;
     encode(clip.skeleton, motion, info.layout, &r.pose, &r.control);
     records.push_back(std::move(r));
@@ -404,12 +414,30 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
       const size_t base = copies.size();
       for (size_t k = 0; k < base; ++k) copies.push_back({reverse_frames(copies[k].motion), copies[k].mirrored, true});
     }
+    // The copies starting from and coming to rest (PrepareOptions::rest_hold_s), where the clip
+    // moves (a standing take needs none), has two legs and enough motion beside its
+    // double-support frame for the ramp.
+    const auto add_at_rest = [&](const Skeleton& skeleton, const Motion& motion, bool mirrored, bool reversed,
+                                 bool retimed) {
+      if (mean_root_speed_mps(skeleton, motion, info.layout.root_joint) < kRestMinSpeedMps) return;
+      for (const RestEnd end : {RestEnd::kStart, RestEnd::kEnd}) {
+        const int rest_frame = double_support_frame(skeleton, motion, end);
+        const double moving_s =
+            end == RestEnd::kEnd ? rest_frame / motion.fps : motion.duration_s() - rest_frame / motion.fps;
+        if (rest_frame < 0 || moving_s < info.augment_rest_ramp_s / 2) continue;
+        add(come_to_rest(motion, rest_frame, end, info.augment_rest_ramp_s, info.augment_rest_hold_s), mirrored,
+            reversed, retimed, true);
+      }
+    };
     for (const Copy& c : copies) add(c.motion, c.mirrored, c.reversed, false);
+    if (info.augment_rest_hold_s > 0)
+      for (const Copy& c : copies) add_at_rest(clip.skeleton, c.motion, c.mirrored, c.reversed, false);
     const std::vector<double> factors = retime_band_holds(info, clip) ? info.augment_retime : std::vector<double>{};
     for (double factor : factors)
       for (const Copy& c : copies) {
         const Motion retimed = retime(c.motion, factor);
         if (retimed.num_frames >= 2) add(retimed, c.mirrored, c.reversed, true);
+        if (info.augment_rest_hold_s > 0) add_at_rest(clip.skeleton, retimed, c.mirrored, c.reversed, true);
       }
   } catch (const Error& e) {
     throw Error(item.path + ": " + e.what());

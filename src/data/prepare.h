@@ -58,6 +58,14 @@ struct PrepareOptions {
   // second cadence beside the takes' own at the speeds they already cover.
   double retime_min_speed_mps = 0;
   double retime_max_speed_mps = 0;  // 0 = no upper bound
+  // When > 0, two more copies of every clip (and of its mirrored, reversed and retimed copies):
+  // one starting from rest, one coming to rest (data/augment.h come_to_rest at the clip's
+  // double-support frame in its first or last half), the still pose held this many seconds and
+  // the speed ramped over rest_ramp_s. No Bandai-Namco locomotion take starts or stops, so models
+  // trained on them glide into the stop at a drawn path's end. A clip too short for the ramp on
+  // its moving side, or slower than 0.3 m/s (standing), gets no such copy.
+  double rest_hold_s = 0;
+  double rest_ramp_s = 1.0;
   // When set, a dataset or run directory whose stats.json standardises this dataset instead of its
   // own training statistics (same pose and control dims), so that a model warm-started from that
   // run (`train --init-from`) reads the new data in the units its weights were trained on.

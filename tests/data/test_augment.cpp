@@ -103,6 +103,67 @@ TEST(Augment, RetimePlaysFasterAtTheSameRate) {
   EXPECT_THROW(retime(m, std::nan("")), Error);
 }
 
+// double_support_frame against a brute-force search over the FK of the ankles; come_to_rest by
+// hand: the source played as recorded, then the ramp's source times u0 + v - v^2 / (2 ramp), then
+// the rest frame held; the start the same reversed in time.
+TEST(Augment, ComeToRestRampsToTheDoubleSupportFrameAndHolds) {
+  const Skeleton s = make_synthetic_biped();
+  const Motion m = make_synthetic_walk(s, 91, 30.0);  // 3 s
+  const WorldPoses world = forward_kinematics(s, m);
+  const int ankles[2] = {s.find("Foot_L"), s.find("Foot_R")};
+  const auto slower_at = [&](int t) {  // the larger ankle ground speed into frame t, units per frame
+    double v = 0;
+    for (int a : ankles) {
+      Eigen::Vector3d d = world.position(t, a) - world.position(t - 1, a);
+      d[s.up_axis] = 0;
+      v = std::max(v, d.norm());
+    }
+    return v;
+  };
+  int best_end = 45;
+  for (int t = 45; t <= 90; ++t) best_end = slower_at(t) < slower_at(best_end) ? t : best_end;
+  const int rest = double_support_frame(s, m, RestEnd::kEnd);
+  EXPECT_EQ(rest, best_end);
+  const int start_rest = double_support_frame(s, m, RestEnd::kStart);
+  EXPECT_GE(start_rest, 1);
+  EXPECT_LE(start_rest, 45);
+  const double ramp = 1.0, hold = 2.0, u0 = rest / 30.0 - ramp / 2;
+  const Motion stop = come_to_rest(m, rest, RestEnd::kEnd, ramp, hold);
+  EXPECT_NO_THROW(stop.validate());
+  EXPECT_EQ(stop.num_frames, static_cast<int>(std::floor((u0 + ramp + hold) * 30 + 1e-9)) + 1);
+  EXPECT_LT(max_motion_difference(slice_frames(stop, 0, 10), slice_frames(m, 0, 10)), 1e-9);  // as recorded
+  const Motion rest_pose = slice_frames(m, rest, 1);
+  const int ramp_end = static_cast<int>(std::ceil((u0 + ramp) * 30));
+  for (int k = ramp_end; k < stop.num_frames; ++k)
+    EXPECT_LT(max_motion_difference(slice_frames(stop, k, 1), rest_pose), 1e-9) << k;
+  // Mid-ramp: source time u0 + 0.5 - 0.125, i.e. the source resampled there.
+  const int mid = static_cast<int>(std::lround((u0 + 0.5) * 30));
+  const double v = mid / 30.0 - u0, source_s = u0 + v - v * v / (2 * ramp);
+  const double s_frames = source_s * 30;
+  const int a = static_cast<int>(std::floor(s_frames));
+  const Eigen::Vector3d expected =
+      (1 - (s_frames - a)) * m.translation(a, 0) + (s_frames - a) * m.translation(a + 1, 0);
+  EXPECT_LT((stop.translation(mid, 0) - expected).norm(), 1e-9);
+  // The root slows: its ground step in the ramp's last frames is a fraction of the walk's.
+  const auto ground_step = [&](const Motion& x, int k) {
+    Eigen::Vector3d d = x.translation(k, 0) - x.translation(k - 1, 0);
+    d[s.up_axis] = 0;
+    return d.norm();
+  };
+  EXPECT_LT(ground_step(stop, ramp_end - 1), 0.15 * ground_step(stop, 5));
+  // The start: the rest pose held first, then the walk on to the source's last frame.
+  const Motion go = come_to_rest(m, start_rest, RestEnd::kStart, ramp, hold);
+  EXPECT_LT(max_motion_difference(slice_frames(go, 0, 1), slice_frames(m, start_rest, 1)), 1e-9);
+  EXPECT_LT(max_motion_difference(slice_frames(go, 59, 1), slice_frames(m, start_rest, 1)), 1e-9);
+  EXPECT_LT(ground_step(go, 62), 0.15 * ground_step(go, go.num_frames - 1));
+  EXPECT_LT((go.translation(go.num_frames - 1, 0) - m.translation(90, 0)).norm(), 1e-6);
+  EXPECT_THROW(come_to_rest(m, rest, RestEnd::kEnd, -1.0, hold), Error);
+  EXPECT_THROW(come_to_rest(m, 91, RestEnd::kEnd, ramp, hold), Error);
+  EXPECT_THROW(come_to_rest(m, 10, RestEnd::kEnd, ramp, hold), Error);   // 0.33 s before it, the ramp needs 0.5
+  EXPECT_THROW(come_to_rest(m, 80, RestEnd::kStart, ramp, hold), Error);  // 0.33 s after it
+  EXPECT_EQ(double_support_frame(s, slice_frames(m, 0, 3), RestEnd::kEnd), -1);
+}
+
 TEST(Augment, ResampleHalvesFramesAndInterpolates) {
   const Skeleton s = make_synthetic_biped();
   const Motion m = make_synthetic_walk(s, 121, 120.0);

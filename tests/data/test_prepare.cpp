@@ -192,6 +192,42 @@ TEST(Prepare, MaxTrainSecondsCutsTheTrainingSplit) {
 // Retimed copies sit after the original and its mirror, flagged, with the frames and root speed
 // of the faster playback; evaluation's "take as recorded" skips them; the factors are recorded.
 // stats_from standardises with another directory's statistics instead of the dataset's own.
+// rest_hold_s: after each clip, a copy starting from rest and one coming to rest, flagged (bit 3,
+// read back), labels kept; the held seconds stand still in the control (no root step) and the
+// dataset.json records the hold and the ramp.
+TEST(Prepare, CopiesStartingFromAndComingToRest) {
+  const fs::path out = temp_path("rest");
+  fs::remove_all(out);
+  PrepareOptions o = basic_options(out.string());
+  o.rest_hold_s = 1.0;
+  o.rest_ramp_s = 1.0;
+  prepare_dataset(o);
+  const Dataset ds = Dataset::open(out.string());
+  EXPECT_DOUBLE_EQ(ds.info().augment_rest_hold_s, 1.0);
+  EXPECT_DOUBLE_EQ(ds.info().augment_rest_ramp_s, 1.0);
+  const auto& recs = ds.clips("train");
+  ASSERT_EQ(recs.size() % 3, 0u);
+  const auto step_m = [](const ClipRecord& r, int t) { return std::hypot(r.control[3 * t], r.control[3 * t + 1]); };
+  for (size_t f = 0; f < recs.size(); f += 3) {
+    const ClipRecord &orig = recs[f], &start = recs[f + 1], &stop = recs[f + 2];
+    EXPECT_FALSE(orig.augmented());
+    for (const ClipRecord* r : {&start, &stop}) {
+      EXPECT_TRUE(r->at_rest && r->augmented() && !r->mirrored && !r->retimed);
+      EXPECT_EQ(r->content, orig.content);
+      EXPECT_EQ(r->source, orig.source);
+    }
+    // Held a second at 30 fps: the stop's last 30 frames and the start's first 30 barely move
+    // (the filtered control spreads the ramp a little into them), against a walking step in the middle.
+    const double walking = step_m(orig, orig.num_frames / 2);
+    EXPECT_GT(walking, 0.01);
+    EXPECT_LT(step_m(stop, stop.num_frames - 2), 0.05 * walking);
+    EXPECT_LT(step_m(start, 2), 0.05 * walking);
+  }
+  o.rest_hold_s = -1.0;
+  o.overwrite = true;
+  EXPECT_THROW(prepare_dataset(o), Error);
+}
+
 TEST(Prepare, RetimedCopiesAndBorrowedStats) {
   const fs::path out = temp_path("retime"), plain_dir = temp_path("retime_plain");
   fs::remove_all(out);
