@@ -123,7 +123,8 @@ struct MoGlowOptions {
   // than 0.1 m/s counts the excess, as the independent check counts foot skating; each row costs
   // what its draws slide more than the data's frames of the same window). Continued training
   // moved the slide from the heels to the toes, which the heel terms do not see (session 30).
-  // 0 = off. Logged as toe_slide_mps.
+  // 0 = off. Logged as toe_slide_mps. Measured: at weights 1-10 over 40 draws it broke the gait
+  // within a few hundred steps (src/nn/moglow/README.md, session 31); kept for further work.
   double toe_slide_weight = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
