@@ -178,6 +178,25 @@ Clip subset_by_patterns(const Clip& clip, const std::vector<std::string>& drop_p
 
 // ---- Frame rate ----
 
+namespace {
+
+// The pose at fractional source frame `frame` (clamped into the motion), rotations slerped and
+// translations interpolated linearly between the two nearest frames, written into frame k of out.
+void pose_at(const Motion& motion, double frame, Motion* out, int k) {
+  const double s = std::clamp(frame, 0.0, static_cast<double>(motion.num_frames - 1));
+  const int a = std::min(static_cast<int>(std::floor(s)), motion.num_frames - 1);
+  const int b = std::min(a + 1, motion.num_frames - 1);
+  const double w = std::clamp(s - a, 0.0, 1.0);
+  for (int j = 0; j < motion.num_joints; ++j) {
+    const Eigen::Quaterniond qa = motion.rotation(a, j);
+    const Eigen::Quaterniond qb = align_hemisphere(motion.rotation(b, j), qa);
+    out->rotation(k, j) = qa.slerp(w, qb).normalized();
+    out->translation(k, j) = (1.0 - w) * motion.translation(a, j) + w * motion.translation(b, j);
+  }
+}
+
+}  // namespace
+
 Motion resample(const Motion& motion, double fps_out) {
   if (!(fps_out > 0) || !std::isfinite(fps_out)) throw Error("resample: target fps must be positive");
   if (std::abs(fps_out - motion.fps) <= 1e-5 * motion.fps) {
@@ -194,18 +213,7 @@ Motion resample(const Motion& motion, double fps_out) {
   out.num_frames = static_cast<int>(std::floor((motion.num_frames - 1) / ratio + 1e-9)) + 1;
   out.rotations.resize(static_cast<size_t>(out.num_frames) * out.num_joints);
   out.translations.resize(out.rotations.size());
-  for (int k = 0; k < out.num_frames; ++k) {
-    const double s = k * ratio;
-    const int a = std::min(static_cast<int>(std::floor(s)), motion.num_frames - 1);
-    const int b = std::min(a + 1, motion.num_frames - 1);
-    const double w = std::clamp(s - a, 0.0, 1.0);
-    for (int j = 0; j < out.num_joints; ++j) {
-      const Eigen::Quaterniond qa = motion.rotation(a, j);
-      const Eigen::Quaterniond qb = align_hemisphere(motion.rotation(b, j), qa);
-      out.rotation(k, j) = qa.slerp(w, qb).normalized();
-      out.translation(k, j) = (1.0 - w) * motion.translation(a, j) + w * motion.translation(b, j);
-    }
-  }
+  for (int k = 0; k < out.num_frames; ++k) pose_at(motion, k * ratio, &out, k);
   return out;
 }
 
@@ -228,24 +236,6 @@ Motion retime(const Motion& motion, double factor) {
   return resample(faster, motion.fps);
 }
 
-namespace {
-
-// The pose at source time t_s (seconds, clamped into the motion), interpolated as resample does,
-// written into frame k of out.
-void pose_at(const Motion& motion, double t_s, Motion* out, int k) {
-  const double s = std::clamp(t_s * motion.fps, 0.0, static_cast<double>(motion.num_frames - 1));
-  const int a = static_cast<int>(std::floor(s));
-  const int b = std::min(a + 1, motion.num_frames - 1);
-  const double w = s - a;
-  for (int j = 0; j < motion.num_joints; ++j) {
-    const Eigen::Quaterniond qa = motion.rotation(a, j);
-    const Eigen::Quaterniond qb = align_hemisphere(motion.rotation(b, j), qa);
-    out->rotation(k, j) = qa.slerp(w, qb).normalized();
-    out->translation(k, j) = (1.0 - w) * motion.translation(a, j) + w * motion.translation(b, j);
-  }
-}
-
-}  // namespace
 
 int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end) {
   const auto legs = find_legs(skeleton);
@@ -293,9 +283,9 @@ Motion come_to_rest(const Motion& motion, int rest_frame, RestEnd end, double ra
   out.translations.resize(out.rotations.size());
   for (int k = 0; k < out.num_frames; ++k) {
     if (end == RestEnd::kEnd) {
-      pose_at(motion, source_s(k / fps), &out, k);
+      pose_at(motion, source_s(k / fps) * fps, &out, k);
     } else {  // the kEnd mapping run backwards from the motion's last frame
-      pose_at(motion, motion.duration_s() - source_s(total_s - k / fps), &out, k);
+      pose_at(motion, (motion.duration_s() - source_s(total_s - k / fps)) * fps, &out, k);
     }
   }
   return out;
