@@ -236,13 +236,14 @@ Motion retime(const Motion& motion, double factor) {
   return resample(faster, motion.fps);
 }
 
-
-int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end) {
+int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end, double min_moving_s) {
   const auto legs = find_legs(skeleton);
   if (legs.size() != 2 || motion.num_frames < 4) return -1;
+  const int half = motion.num_frames / 2, margin = static_cast<int>(std::ceil(min_moving_s * motion.fps - 1e-9));
+  const int first = end == RestEnd::kStart ? 1 : std::max(half, margin);
+  const int last = end == RestEnd::kStart ? std::min(half, motion.num_frames - 1 - margin) : motion.num_frames - 1;
+  if (first > last) return -1;
   const WorldPoses world = forward_kinematics(skeleton, motion);
-  const int half = motion.num_frames / 2;
-  const int first = end == RestEnd::kStart ? 1 : half, last = end == RestEnd::kStart ? half : motion.num_frames - 1;
   int best = -1;
   double best_speed = std::numeric_limits<double>::infinity();
   for (int t = first; t <= last; ++t) {

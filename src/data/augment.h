@@ -94,8 +94,10 @@ enum class RestEnd { kStart, kEnd };
 
 // The frame in the motion's first (kStart) or last (kEnd) half where both feet are slowest, i.e.
 // double support: the larger of the two ankles' (core find_legs) horizontal speeds into the frame
-// is least. -1 when the skeleton has not two legs or the motion has fewer than 4 frames.
-int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end);
+// is least. Only frames with at least min_moving_s seconds of motion on their moving side (before
+// the frame for kEnd, after it for kStart: what come_to_rest's ramp needs) are searched. -1 when
+// the skeleton has not two legs, the motion has fewer than 4 frames, or no frame qualifies.
+int double_support_frame(const Skeleton& skeleton, const Motion& motion, RestEnd end, double min_moving_s = 0.0);
 
 // The motion brought to rest at one end, a walk (or run) stopping in, or starting from, its
 // stance at rest_frame. kEnd: it plays at its own rate until ramp_s / 2 seconds of source time

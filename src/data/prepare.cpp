@@ -415,16 +415,14 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
       for (size_t k = 0; k < base; ++k) copies.push_back({reverse_frames(copies[k].motion), copies[k].mirrored, true});
     }
     // The copies starting from and coming to rest (PrepareOptions::rest_hold_s), where the clip
-    // moves (a standing take needs none), has two legs and enough motion beside its
-    // double-support frame for the ramp.
+    // moves (a standing take needs none) and has two legs and a double-support frame with room for
+    // the ramp.
     const auto add_at_rest = [&](const Skeleton& skeleton, const Motion& motion, bool mirrored, bool reversed,
                                  bool retimed) {
       if (mean_root_speed_mps(skeleton, motion, info.layout.root_joint) < kRestMinSpeedMps) return;
       for (const RestEnd end : {RestEnd::kStart, RestEnd::kEnd}) {
-        const int rest_frame = double_support_frame(skeleton, motion, end);
-        const double moving_s =
-            end == RestEnd::kEnd ? rest_frame / motion.fps : motion.duration_s() - rest_frame / motion.fps;
-        if (rest_frame < 0 || moving_s < info.augment_rest_ramp_s / 2) continue;
+        const int rest_frame = double_support_frame(skeleton, motion, end, info.augment_rest_ramp_s / 2);
+        if (rest_frame < 0) continue;
         add(come_to_rest(motion, rest_frame, end, info.augment_rest_ramp_s, info.augment_rest_hold_s), mirrored,
             reversed, retimed, true);
       }

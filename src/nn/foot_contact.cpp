@@ -36,14 +36,21 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
   control_std_ = torch::tensor(st.control_std);
 }
 
+torch::Tensor PlantedHeelTerm::positions_m(const torch::Tensor& pose) const {
+  const auto opts = pose.options();
+  return pose * pose_std_.to(opts) + pose_mean_.to(opts);
+}
+
+torch::Tensor PlantedHeelTerm::raw_control(const torch::Tensor& control, const torch::TensorOptions& opts) const {
+  return control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
+}
+
 PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, const torch::Tensor& real,
                                                    const torch::Tensor& control) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
-  const auto opts = made.options();
-  const auto pm = pose_mean_.to(opts), ps = pose_std_.to(opts);
-  const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
-  HeelSpeeds out{joint_ground_speed_mps(made * ps + pm, ctrl, heels_, fps_),
-                 joint_ground_speed_mps(real.to(opts) * ps + pm, ctrl, heels_, fps_), {}};
+  const auto ctrl = raw_control(control, made.options());
+  HeelSpeeds out{joint_ground_speed_mps(positions_m(made), ctrl, heels_, fps_),
+                 joint_ground_speed_mps(positions_m(real.to(made.options())), ctrl, heels_, fps_), {}};
   if (planted_speed_fraction_ > 0) {
     // The control of frame t is the root's step into it (sideways, forward in metres; turn).
     const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);
@@ -109,11 +116,10 @@ torch::Tensor PlantedHeelTerm::toe_slide_per_row(const torch::Tensor& frames, co
                                                 const torch::Tensor& valid) const {
   if (toes_.empty()) throw Error("PlantedHeelTerm: the toe-slide term needs a joint below each ankle (the toes)");
   const auto opts = frames.options();
-  const auto positions_m = frames * pose_std_.to(opts) + pose_mean_.to(opts);
-  const auto ctrl = control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
-  const auto speed = joint_ground_speed_mps(positions_m, ctrl, toes_, fps_);  // [B, T-1, 2]
-  std::vector<torch::Tensor> heights;                                        // y is up
-  for (int j : toes_) heights.push_back(positions_m.select(-1, 3 * j + 1).detach());
+  const auto metres = positions_m(frames);
+  const auto speed = joint_ground_speed_mps(metres, raw_control(control, opts), toes_, fps_);  // [B, T-1, 2]
+  std::vector<torch::Tensor> heights;                                                          // y is up
+  for (int j : toes_) heights.push_back(metres.select(-1, 3 * j + 1).detach());
   const auto height = torch::stack(heights, -1);  // [B, T, 2]
   const auto floor = std::get<0>(height.min(1, /*keepdim=*/true));
   // Not differentiated: lifting a toe off the floor is no cure (run 34, session 31: the feet hovered

@@ -122,6 +122,10 @@ class PlantedHeelTerm {
   const std::vector<int>& toes() const { return toes_; }    // each ankle's first child; empty if none
 
  private:
+  // Standardised pose [.., D] -> joint positions in metres; standardised control [.., C] -> raw, in opts.
+  torch::Tensor positions_m(const torch::Tensor& pose) const;
+  torch::Tensor raw_control(const torch::Tensor& control, const torch::TensorOptions& opts) const;
+
   std::vector<int> heels_;
   std::vector<int> toes_;
   double fps_ = 30.0;

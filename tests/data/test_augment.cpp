@@ -162,6 +162,15 @@ TEST(Augment, ComeToRestRampsToTheDoubleSupportFrameAndHolds) {
   EXPECT_THROW(come_to_rest(m, 10, RestEnd::kEnd, ramp, hold), Error);   // 0.33 s before it, the ramp needs 0.5
   EXPECT_THROW(come_to_rest(m, 80, RestEnd::kStart, ramp, hold), Error);  // 0.33 s after it
   EXPECT_EQ(double_support_frame(s, slice_frames(m, 0, 3), RestEnd::kEnd), -1);
+  // With room for a ramp: only frames with that much motion on their moving side are searched.
+  const int late = double_support_frame(s, m, RestEnd::kEnd, 2.0), early = double_support_frame(s, m, RestEnd::kStart, 2.0);
+  EXPECT_GE(late, 60);
+  EXPECT_GE(early, 1);
+  EXPECT_LE(early, 30);
+  int best_late = 60;
+  for (int t = 60; t <= 90; ++t) best_late = slower_at(t) < slower_at(best_late) ? t : best_late;
+  EXPECT_EQ(late, best_late);
+  EXPECT_EQ(double_support_frame(s, m, RestEnd::kEnd, 3.5), -1);  // longer than the motion
 }
 
 TEST(Augment, ResampleHalvesFramesAndInterpolates) {

@@ -470,8 +470,10 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   auto pairs = [](const torch::Tensor& before, const torch::Tensor& after, int64_t f) {
     return torch::stack({before, after}, 2).reshape({-1, 2, f});
   };
+  const auto real_drawn = batch.pose.narrow(1, tau, n);                // the data's frames of the draws
+  const auto drawn_valid = valid.defined() ? valid.narrow(1, 0, n) : valid;  // [B, n], undefined = all
   const auto made_pairs = pairs(prev, made, d);
-  const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), batch.pose.narrow(1, tau, n), d);
+  const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), real_drawn, d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
   const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
   // [B n, 1, .] pairs -> [B, n, .] sequences; the phase-locked terms read the first `locked` steps.
@@ -492,18 +494,16 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
                                           sequence(speeds.planted_below_mps, n)};
     const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
     out.missed_stance_mps =
-        planted_heels_.mean_missed_stance(all, window, valid.defined() ? valid.narrow(1, 0, n) : valid);
+        planted_heels_.mean_missed_stance(all, window, drawn_valid);
   }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
     // mean pose is no frame of the motion.
-    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(made, batch.pose.narrow(1, tau, n),
-                                                             batch.control.narrow(1, tau, n),
-                                                             valid.defined() ? valid.narrow(1, 1, n - 1) : valid);
+    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(
+        made, real_drawn, batch.control.narrow(1, tau, n), valid.defined() ? drawn_valid.narrow(1, 1, n - 1) : valid);
   }
   if (options_.pelvis_follow_weight > 0)
-    out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, batch.pose.narrow(1, tau, n),
-                                                              valid.defined() ? valid.narrow(1, 0, n) : valid);
+    out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, real_drawn, drawn_valid);
   return out;
 }
 
