@@ -99,6 +99,11 @@ void add_prepare_command(CLI::App* data_cmd, Action* action) {
                    "end in stride teach no stop")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 60.0));
+  prep->add_option("--rest-fraction", o.rest_fraction,
+                   "--rest-ends: the share of those copies kept (each clip copy and end chosen by a hash of its "
+                   "file, the same on every run)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   prep->add_option("--rest-ramp", o.rest_ramp_s,
                    "--rest-ends: seconds over which the speed falls to rest (rises from it), linearly")
       ->capture_default_str()

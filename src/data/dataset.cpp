@@ -235,6 +235,7 @@ json info_to_json(const DatasetInfo& info) {
   if (info.augment_rest_hold_s > 0) {
     j["augmentation"]["rest_hold_s"] = info.augment_rest_hold_s;
     j["augmentation"]["rest_ramp_s"] = info.augment_rest_ramp_s;
+    if (info.augment_rest_fraction < 1) j["augmentation"]["rest_fraction"] = info.augment_rest_fraction;
   }
   if (!info.stats_from.empty()) j["stats_from"] = info.stats_from;
   if (!info.split_from.empty()) j["split_from"] = info.split_from;
@@ -300,6 +301,9 @@ DatasetInfo info_from_json(const json& j, const std::string& file) {
     for (double v : {info.augment_rest_hold_s, info.augment_rest_ramp_s})
       if (!(v >= 0) || !std::isfinite(v))
         throw ParseError(file, 0, "augmentation.rest_hold_s / rest_ramp_s must be 0 or positive seconds");
+    info.augment_rest_fraction = optional_key(a, "rest_fraction", 1.0, file);
+    if (!(info.augment_rest_fraction > 0 && info.augment_rest_fraction <= 1))
+      throw ParseError(file, 0, "augmentation.rest_fraction must lie in (0, 1]");
   }
   info.tpose = optional_key(j, "tpose", std::string("auto"), file);
   info.stats_from = optional_key(j, "stats_from", std::string(), file);
@@ -603,7 +607,11 @@ std::string dataset_summary(const Dataset& dataset) {
   }
   if (info.augment_rest_hold_s > 0)
     out << ", starts and stops at rest (" << format_seconds(info.augment_rest_ramp_s) << " ramp, "
-        << format_seconds(info.augment_rest_hold_s) << " held)";
+        << format_seconds(info.augment_rest_hold_s) << " held"
+        << (info.augment_rest_fraction < 1
+                ? ", " + std::to_string(static_cast<int>(std::lround(100 * info.augment_rest_fraction))) + "% of them"
+                : std::string())
+        << ")";
   out << "\n";
   if (!info.stats_from.empty()) out << "stats:       from " << info.stats_from << "\n";
   if (!info.split_from.empty()) out << "split:       kept from " << info.split_from << "\n";

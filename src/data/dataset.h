@@ -100,6 +100,7 @@ struct DatasetInfo {
   double augment_retime_min_speed_mps = 0, augment_retime_max_speed_mps = 0;
   // Copies starting from and coming to rest (PrepareOptions::rest_hold_s; 0: none) and their ramp.
   double augment_rest_hold_s = 0, augment_rest_ramp_s = 0;
+  double augment_rest_fraction = 1.0;  // the share of those copies kept (PrepareOptions::rest_fraction)
   // Where stats.json came from when not computed on this dataset's training split
   // (PrepareOptions::stats_from); empty otherwise.
   std::string stats_from;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cmath>
 #include <exception>
 #include <filesystem>
@@ -145,6 +146,8 @@ void check_options(const PrepareOptions& o) {
     throw Error("prepare: retime_max_speed_mps is below retime_min_speed_mps: no clip would be retimed");
   if (!(o.rest_hold_s >= 0) || !std::isfinite(o.rest_hold_s) || !(o.rest_ramp_s >= 0) || !std::isfinite(o.rest_ramp_s))
     throw Error("prepare: rest_hold_s and rest_ramp_s must be 0 or positive seconds");
+  if (!(o.rest_fraction > 0 && o.rest_fraction <= 1))
+    throw Error("prepare: rest_fraction must lie in (0, 1], got " + std::to_string(o.rest_fraction));
 }
 
 // Lists and filters every input; builds the shared vocabularies and the file items.
@@ -301,6 +304,7 @@ DatasetInfo describe_dataset(const PrepareOptions& o, DatasetInfo info, const Sk
   if (o.rest_hold_s > 0) {
     info.augment_rest_hold_s = o.rest_hold_s;
     info.augment_rest_ramp_s = o.rest_ramp_s;
+    info.augment_rest_fraction = o.rest_fraction;
   }
   info.tpose = to_string(o.tpose);
   info.drop_joint_patterns = o.drop_joint_patterns;
@@ -369,6 +373,18 @@ double mean_root_speed_mps(const Skeleton& skeleton, const Motion& motion, int r
 // Clips slower than this (m/s, mean root speed) get no copies at rest: they stand already.
 constexpr double kRestMinSpeedMps = 0.3;
 
+// Whether the copy at rest of one clip copy and end is kept (PrepareOptions::rest_fraction): its
+// FNV-1a hash, mapped to [0, 1), under the fraction. The same on every machine and run.
+bool rest_copy_kept(double fraction, const std::string& source, bool mirrored, bool reversed, bool retimed,
+                    RestEnd end) {
+  if (fraction >= 1) return true;
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](unsigned char byte) { h = (h ^ byte) * 1099511628211ull; };
+  for (const char c : source) mix(static_cast<unsigned char>(c));
+  for (const bool flag : {mirrored, reversed, retimed, end == RestEnd::kEnd}) mix(flag ? 1 : 0);
+  return static_cast<double>(h >> 11) / static_cast<double>(1ull << 53) < fraction;
+}
+
 // Whether a clip gets the dataset's retimed copies: its mean root speed lies in the band of
 // DatasetInfo::augment_retime_min/max_speed_mps (0: no bound).
 bool retime_band_holds(const DatasetInfo& info, const Clip& clip) {
@@ -421,6 +437,7 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
                                  bool retimed) {
       if (mean_root_speed_mps(skeleton, motion, info.layout.root_joint) < kRestMinSpeedMps) return;
       for (const RestEnd end : {RestEnd::kStart, RestEnd::kEnd}) {
+        if (!rest_copy_kept(info.augment_rest_fraction, item.source, mirrored, reversed, retimed, end)) continue;
         const int rest_frame = double_support_frame(skeleton, motion, end, info.augment_rest_ramp_s / 2);
         if (rest_frame < 0) continue;
         add(come_to_rest(motion, rest_frame, end, info.augment_rest_ramp_s, info.augment_rest_hold_s), mirrored,

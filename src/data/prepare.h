@@ -66,6 +66,11 @@ struct PrepareOptions {
   // its moving side, or slower than 0.3 m/s (standing), gets no such copy.
   double rest_hold_s = 0;
   double rest_ramp_s = 1.0;
+  // The share of those copies kept, in (0, 1]: each (clip copy, end) pair is kept when a hash of its
+  // source file, copy and end falls under it, so the choice is the same on every run. Fewer copies
+  // teach the stop while changing less of what the model sees walking (the ramps are slowed
+  // playback, the holds a still pose).
+  double rest_fraction = 1.0;
   // When set, a dataset or run directory whose stats.json standardises this dataset instead of its
   // own training statistics (same pose and control dims), so that a model warm-started from that
   // run (`train --init-from`) reads the new data in the units its weights were trained on.

@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 #include <unistd.h>
 
 #include "core/error.h"
@@ -224,6 +226,43 @@ TEST(Prepare, CopiesStartingFromAndComingToRest) {
     EXPECT_LT(step_m(start, 2), 0.05 * walking);
   }
   o.rest_hold_s = -1.0;
+  o.overwrite = true;
+  EXPECT_THROW(prepare_dataset(o), Error);
+}
+
+// rest_fraction keeps a share of the copies at rest, chosen alike on every run: 12 training files
+// and their mirrors give 48 candidate copies (two ends each); half of them is kept, the originals
+// all, and the same ones again when prepared anew.
+TEST(Prepare, KeepsAShareOfTheCopiesAtRestTheSameEachTime) {
+  const fs::path full_dir = temp_path("rest_full"), half_dir = temp_path("rest_half"), again_dir = temp_path("rest_again");
+  for (const fs::path& d : {full_dir, half_dir, again_dir}) fs::remove_all(d);
+  PrepareOptions o = basic_options(full_dir.string());
+  o.mirror = true;
+  o.rest_hold_s = 1.0;
+  prepare_dataset(o);
+  o.rest_fraction = 0.5;
+  o.output_dir = half_dir.string();
+  prepare_dataset(o);
+  o.output_dir = again_dir.string();
+  prepare_dataset(o);
+  const Dataset full = Dataset::open(full_dir.string()), half = Dataset::open(half_dir.string()),
+                again = Dataset::open(again_dir.string());
+  EXPECT_DOUBLE_EQ(full.info().augment_rest_fraction, 1.0);
+  EXPECT_DOUBLE_EQ(half.info().augment_rest_fraction, 0.5);
+  const auto at_rest = [](const Dataset& ds) {
+    std::vector<std::tuple<std::string, bool, int>> kept;
+    for (const ClipRecord& r : ds.clips("train"))
+      if (r.at_rest) kept.emplace_back(r.source, r.mirrored, r.num_frames);
+    return kept;
+  };
+  const auto all = at_rest(full), some = at_rest(half);
+  EXPECT_EQ(all.size(), 48u);
+  EXPECT_GT(some.size(), 12u);
+  EXPECT_LT(some.size(), 36u);
+  EXPECT_EQ(at_rest(again), some);
+  for (const auto& copy : some) EXPECT_NE(std::find(all.begin(), all.end(), copy), all.end());
+  EXPECT_EQ(full.clips("train").size() - all.size(), half.clips("train").size() - some.size());
+  o.rest_fraction = 0.0;
   o.overwrite = true;
   EXPECT_THROW(prepare_dataset(o), Error);
 }

@@ -634,6 +634,55 @@ data::ClipRecord labelled_clip(const std::string& source, int frames, int pose_d
 
 }  // namespace
 
+// Speed balance by hand: three 1.2-m/s clips and one 3.2-m/s clip of 10 frames at 20 fps, one
+// window each. Exponent 1 draws both bins alike (the fast clip 3x each slow one), 0.5 by the
+// square root of the shares, 0 as before.
+TEST(Training, SpeedBalanceFlattensTheDrawsOverRootSpeed) {
+  const double fps = 20;
+  auto clip_at = [&](double speed_mps) {
+    data::ClipRecord r;
+    r.num_frames = 10;
+    for (int t = 0; t < r.num_frames; ++t) {
+      const double step_m = speed_mps / fps;  // along a 30-degree heading, so both dx and dz count
+      r.control.insert(r.control.end(), {static_cast<float>(step_m * std::cos(0.5236)),
+                                         static_cast<float>(step_m * std::sin(0.5236)), 0.01f});
+    }
+    return r;
+  };
+  const std::vector<data::ClipRecord> clips = {clip_at(1.2), clip_at(1.2), clip_at(1.2), clip_at(3.2)};
+  EXPECT_NEAR(training::clip_root_speed_mps(clips[0], 3, fps), 1.2, 1e-5);
+  EXPECT_NEAR(training::clip_root_speed_mps(clips[3], 3, fps), 3.2, 1e-5);
+  training::SplitWindows split;
+  split.clips = &clips;
+  split.window = 10;
+  for (int c = 0; c < 4; ++c) split.windows.push_back({c, 0, 0});
+  const std::vector<double> even(4, 1.0);
+
+  const auto shares = training::speed_bin_shares(split, even, 3, fps);
+  ASSERT_EQ(shares.size(), 2u);
+  EXPECT_DOUBLE_EQ(shares.at(2), 0.75);  // 1.0-1.5 m/s
+  EXPECT_DOUBLE_EQ(shares.at(6), 0.25);  // 3.0-3.5 m/s
+
+  const std::vector<double> flat = training::speed_balanced_weights(split, even, 3, fps, 1.0);
+  EXPECT_NEAR(flat[3] / flat[0], 3.0, 1e-12);
+  const auto flat_shares = training::speed_bin_shares(split, flat, 3, fps);
+  EXPECT_NEAR(flat_shares.at(2), 0.5, 1e-12);
+  EXPECT_NEAR(flat_shares.at(6), 0.5, 1e-12);
+  const std::vector<double> root = training::speed_balanced_weights(split, even, 3, fps, 0.5);
+  EXPECT_NEAR(root[3] / root[0], std::sqrt(3.0), 1e-12);
+  EXPECT_EQ(training::speed_balanced_weights(split, even, 3, fps, 0.0), even);
+  // Weights already uneven (by frames) are scaled, not replaced.
+  const std::vector<double> by_frames = {2, 1, 1, 4};
+  const std::vector<double> scaled = training::speed_balanced_weights(split, by_frames, 3, fps, 1.0);
+  EXPECT_NEAR(scaled[0] / scaled[1], 2.0, 1e-12);
+  EXPECT_NEAR(scaled[3] / (scaled[0] + scaled[1] + scaled[2]), 1.0, 1e-12);  // 4 of 8 vs 4 of 8
+  EXPECT_THROW(training::speed_balanced_weights(split, {1.0}, 3, fps, 1.0), Error);
+
+  nlohmann::json bad = {{"speed_balance", 1.5}};
+  EXPECT_THROW(TrainOptions::from_json(bad), Error);
+  EXPECT_DOUBLE_EQ(TrainOptions::from_json({{"speed_balance", 0.5}}).speed_balance, 0.5);
+}
+
 // Clips shorter than the window: left out (with a warning that names the labels never seen) for
 // most families, or one padded window with its length for families that mask padding (hvrnn).
 TEST(Training, ShortClipsAreNamedOrPaddedWithTheirLength) {

@@ -40,6 +40,66 @@ std::vector<double> clip_frame_weights(const SplitWindows& split) {
   return weights;
 }
 
+double clip_root_speed_mps(const data::ClipRecord& clip, int control_dim, double fps) {
+  if (clip.num_frames < 1 || control_dim < 2) return 0;
+  double metres = 0;
+  for (int t = 0; t < clip.num_frames; ++t) {
+    const float* c = clip.control.data() + static_cast<size_t>(t) * control_dim;
+    metres += std::hypot(static_cast<double>(c[0]), static_cast<double>(c[1]));
+  }
+  return metres * fps / clip.num_frames;
+}
+
+namespace {
+
+// The speed bin of every window of split.
+std::vector<int> window_speed_bins(const SplitWindows& split, int control_dim, double fps) {
+  std::map<int, int> bin_of_clip;
+  std::vector<int> bins;
+  bins.reserve(split.windows.size());
+  for (const data::WindowRef& w : split.windows) {
+    auto it = bin_of_clip.find(w.clip);
+    if (it == bin_of_clip.end()) {
+      const double speed = clip_root_speed_mps((*split.clips)[static_cast<size_t>(w.clip)], control_dim, fps);
+      it = bin_of_clip.emplace(w.clip, static_cast<int>(std::floor(speed / kSpeedBinMps))).first;
+    }
+    bins.push_back(it->second);
+  }
+  return bins;
+}
+
+std::map<int, double> bin_shares(const std::vector<int>& bins, const std::vector<double>& weights) {
+  std::map<int, double> share;
+  double total = 0;
+  for (size_t i = 0; i < bins.size(); ++i) {
+    share[bins[i]] += weights[i];
+    total += weights[i];
+  }
+  for (auto& [bin, s] : share) s = total > 0 ? s / total : 0;
+  return share;
+}
+
+}  // namespace
+
+std::map<int, double> speed_bin_shares(const SplitWindows& split, const std::vector<double>& weights,
+                                       int control_dim, double fps) {
+  if (weights.size() != split.windows.size()) throw Error("speed_bin_shares: one weight per window expected");
+  return bin_shares(window_speed_bins(split, control_dim, fps), weights);
+}
+
+std::vector<double> speed_balanced_weights(const SplitWindows& split, const std::vector<double>& weights,
+                                           int control_dim, double fps, double exponent) {
+  if (weights.size() != split.windows.size()) throw Error("speed_balanced_weights: one weight per window expected");
+  const std::vector<int> bins = window_speed_bins(split, control_dim, fps);
+  const std::map<int, double> share = bin_shares(bins, weights);
+  std::vector<double> balanced(weights.size());
+  for (size_t i = 0; i < weights.size(); ++i) {
+    const double s = share.at(bins[i]);
+    balanced[i] = s > 0 ? weights[i] * std::pow(s, -exponent) : 0.0;
+  }
+  return balanced;
+}
+
 SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames) {
   SplitWindows s;
   s.clips = &dataset.clips("val");

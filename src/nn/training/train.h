@@ -68,6 +68,11 @@ struct TrainOptions {
   // weighs what it does in the data whatever the window length (with 80-frame windows the
   // Bandai-Namco runs, median 63 frames, hold 22% of the frames but got 6% of the windows).
   std::string window_sampling = "windows";
+  // Flattens the draws over mean root speed: each window's weight (as window_sampling gives it)
+  // times s^-speed_balance, s the share of the draws held by its clip's 0.5-m/s bin of mean root
+  // speed (training::speed_balanced_weights). 0 = off; 1 = every occupied speed bin drawn alike.
+  // For data whose rare speeds the model gets wrong (Bandai-Namco's fast runs, 3% of the frames).
+  double speed_balance = 0;
   double lr = 1e-3;               // peak learning rate (Adam; the default stage's)
   int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
   double grad_clip = 5.0;         // max global gradient L2 norm; <= 0 disables clipping

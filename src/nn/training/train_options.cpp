@@ -17,6 +17,7 @@ nlohmann::json TrainOptions::to_json() const {
           {"batch", batch},
           {"window", window},
           {"window_sampling", window_sampling},
+          {"speed_balance", speed_balance},
           {"lr", lr},
           {"warmup", warmup},
           {"grad_clip", grad_clip},
@@ -44,6 +45,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "batch") o.batch = io::json_get<int>(v);
       else if (k == "window") o.window = io::json_get<int>(v);
       else if (k == "window_sampling") o.window_sampling = v.get<std::string>();
+      else if (k == "speed_balance") o.speed_balance = v.get<double>();
       else if (k == "lr") o.lr = v.get<double>();
       else if (k == "warmup") o.warmup = io::json_get<int>(v);
       else if (k == "grad_clip") o.grad_clip = v.get<double>();
@@ -61,6 +63,8 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
     }
     if (o.window_sampling != "windows" && o.window_sampling != "frames")
       throw Error("window_sampling must be \"windows\" or \"frames\", got \"" + o.window_sampling + "\"");
+    if (!(o.speed_balance >= 0 && o.speed_balance <= 1))
+      throw Error("speed_balance must lie in [0, 1], got " + std::to_string(o.speed_balance));
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

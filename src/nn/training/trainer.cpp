@@ -18,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <iomanip>
 #include <random>
 #include <sstream>
 
@@ -137,8 +138,8 @@ class Trainer {
   std::unique_ptr<training::BatchMaker> maker_;
   std::unique_ptr<training::LogAppender> log_;
   std::mt19937_64 rng_;
-  std::uniform_int_distribution<size_t> pick_;               // window_sampling "windows"
-  std::optional<std::discrete_distribution<size_t>> pick_by_frames_;  // window_sampling "frames"
+  std::uniform_int_distribution<size_t> pick_;  // window_sampling "windows" without speed_balance
+  std::optional<std::discrete_distribution<size_t>> pick_weighted_;  // "frames" or speed_balance
   std::vector<data::WindowRef> chosen_;
   int step_ = 0;        // optimiser steps done, over all stages
   int stage_ = 0;       // current stage
@@ -254,6 +255,22 @@ void Trainer::build_model(const nlohmann::json& model_config) {
   }
 }
 
+namespace {
+
+// "speed balance: draws per mean root speed 0-0.5 m/s 3% -> 9%, ..." for the log.
+std::string speed_balance_message(const std::map<int, double>& before, const std::map<int, double>& after) {
+  std::ostringstream out;
+  out << "speed balance: share of the draws per mean root speed (m/s)";
+  for (const auto& [bin, share] : before) {
+    out << (bin == before.begin()->first ? " " : ", ") << std::fixed << std::setprecision(1)
+        << bin * training::kSpeedBinMps << "-" << (bin + 1) * training::kSpeedBinMps << " " << std::setprecision(1)
+        << 100 * share << "% -> " << 100 * after.at(bin) << "%";
+  }
+  return out.str();
+}
+
+}  // namespace
+
 void Trainer::prepare_data() {
   const int window = opts_.window > 0 ? opts_.window : dataset_.info().window_frames;
   if (window < 2) throw Error("train: window must be at least 2 frames (set window)");
@@ -264,9 +281,18 @@ void Trainer::prepare_data() {
   if (const std::string w = training::left_out_warning(dataset_, window, min_short); !w.empty()) message(w);
   maker_ = std::make_unique<training::BatchMaker>(dataset_, context_.pose_dim, context_.control_dim, device_);
   pick_ = std::uniform_int_distribution<size_t>(0, train_.windows.size() - 1);
-  if (opts_.window_sampling == "frames") {
-    const std::vector<double> weights = training::clip_frame_weights(train_);
-    pick_by_frames_.emplace(weights.begin(), weights.end());
+  if (opts_.window_sampling == "frames" || opts_.speed_balance > 0) {
+    std::vector<double> weights = opts_.window_sampling == "frames" ? training::clip_frame_weights(train_)
+                                                                    : std::vector<double>(train_.windows.size(), 1.0);
+    if (opts_.speed_balance > 0) {
+      const double fps = dataset_.info().fps;
+      const std::vector<double> balanced =
+          training::speed_balanced_weights(train_, weights, context_.control_dim, fps, opts_.speed_balance);
+      message(speed_balance_message(training::speed_bin_shares(train_, weights, context_.control_dim, fps),
+                                    training::speed_bin_shares(train_, balanced, context_.control_dim, fps)));
+      weights = balanced;
+    }
+    pick_weighted_.emplace(weights.begin(), weights.end());
   }
   chosen_.resize(opts_.batch);
 }
@@ -429,7 +455,7 @@ bool Trainer::train_step(const TrainingStage& stage, bool stop_requested) {
   const int next = step_ + 1;
   const double lr = scheduled_lr(stage.schedule, stage.optimizer.lr, stage_step_ + 1, stage.steps);
   training::set_learning_rate(*optimizer_, lr);
-  for (auto& w : chosen_) w = train_.windows[pick_by_frames_ ? (*pick_by_frames_)(rng_) : pick_(rng_)];
+  for (auto& w : chosen_) w = train_.windows[pick_weighted_ ? (*pick_weighted_)(rng_) : pick_(rng_)];
   // A stage's first step runs on rank 0 alone with the whole batch: what a model initialises from
   // its first batch (MoGlow's ActNorm) then sees what one process sees, and reaches the others.
   const bool alone = group_ && stage_step_ == 0;
