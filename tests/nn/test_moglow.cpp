@@ -537,26 +537,46 @@ TEST(MoGlow, FootContactTermIsTheDrawnHeelResidualSpeed) {
 // exactly what sampling makes from the window's first tau frames along the window's control
 // (the stream's fused inference net against the reference flow), and the term is their planted
 // heels' speed from frame to frame.
-TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
+namespace {
+
+// A standing biped's 12-frame window (float64), and a small MoGlow config whose planted-heel term
+// draws k = 4 frames at temperature 0 from its first tau = 2.
+struct RolloutSetup {
   const mosyn::Skeleton s = mosyn::make_synthetic_biped();
   const ModelContext ctx = mosyn::nn::testing::positions_context(s);
   const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
-  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
-  torch::manual_seed(1);
-  const int64_t tau = 2, k = 4;
+  const torch::Tensor pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
+  static constexpr int64_t tau = 2, k = 4;
   nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"tau", tau}, {"dropout", 0.0}, {"residual", true},
                         {"foot_contact_weight", 1.0}, {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}};
-  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  model->to(torch::kFloat64);
-  randomise(*model);
+  // The same sampling the term's draws are: the window's first tau frames, then k along its control.
+  SampleRequest request() const {
+    SampleRequest req;
+    req.prefix_pose = pose.narrow(1, 0, tau);
+    req.prefix_control = control.narrow(1, 0, tau);
+    req.control = control.narrow(1, tau, k);
+    req.temperature = 0.0;
+    return req;
+  }
+  std::shared_ptr<MoGlowImpl> model() const {  // random weights, seeded alike every time
+    auto m = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+    m->to(torch::kFloat64);
+    torch::manual_seed(1);
+    randomise(*m);
+    return m;
+  }
+};
+
+}  // namespace
+
+TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
+  const RolloutSetup r;
+  const auto& [s, ctx, pose, control] = std::tie(r.s, r.ctx, r.pose, r.control);
+  const int64_t tau = RolloutSetup::tau, k = RolloutSetup::k;
+  auto model = r.model();
   model->eval();
   const double planted = model->loss(Batch{pose, control, {}, {}}).terms.at("planted_heel_mps").item<double>();
-  SampleRequest req;
-  req.prefix_pose = pose.narrow(1, 0, tau);
-  req.prefix_control = control.narrow(1, 0, tau);
-  req.control = control.narrow(1, tau, k);
-  req.temperature = 0.0;
-  const auto drawn = model->sample(req).pose;  // [1, k, D]
+  const auto drawn = model->sample(r.request()).pose;  // [1, k, D]
   double sum = 0;
   for (int heel : {s.find("Foot_L"), s.find("Foot_R")})
     for (int64_t t = 0; t < k; ++t) {
@@ -566,15 +586,19 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
     }
   EXPECT_NEAR(planted, sum / (2 * k), 1e-6);
   EXPECT_GT(planted, 0.0);
+}
 
-  // The heel-speed error on the same draws: standing data's heels do not move, so on every frame
-  // it is the made heel's speed, the planted term's value, less the data heel's floor speed
-  // sqrt(1e-12) m a frame (nn::joint_ground_speed_mps); training adds weight x error.
+// The other terms on the same draws, each by hand; training adds weight x term to the loss.
+TEST(MoGlow, HeelAndPelvisTermsOnTheRolloutAddWeightTimesTerm) {
+  RolloutSetup r;
+  const auto& [ctx, pose, control] = std::tie(r.ctx, r.pose, r.control);
+  nlohmann::json& cfg = r.cfg;
+  const int64_t tau = RolloutSetup::tau, k = RolloutSetup::k;
+  // The heel-speed error: standing data's heels do not move, so on every frame it is the made
+  // heel's speed, the planted term's value, less the data heel's floor speed sqrt(1e-12) m a
+  // frame (nn::joint_ground_speed_mps).
   cfg["heel_speed_weight"] = 0.5;
-  auto both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  both->to(torch::kFloat64);
-  torch::manual_seed(1);
-  randomise(*both);
+  auto both = r.model();
   auto loss_in = [&](bool training) {
     both->train(training);
     return both->loss(Batch{pose, control, {}, {}});
@@ -590,10 +614,7 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   // The lingering-heel term on the same draws: standing data's heels never lift, so it is 0, is
   // logged, and training adds weight x term.
   cfg["lift_off_weight"] = 0.25;
-  both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  both->to(torch::kFloat64);
-  torch::manual_seed(1);
-  randomise(*both);
+  both = r.model();
   const LossTerms eval_all = loss_in(false), train_all = loss_in(true);
   EXPECT_NEAR(eval_all.terms.at("lingering_heel_mps").item<double>(), 0.0, 1e-12);
   EXPECT_NEAR(train_all.loss().item<double>(),
@@ -604,12 +625,8 @@ TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   // by hand over the k drawn frames; training adds weight x term.
   cfg["lift_off_weight"] = 0.0;
   cfg["pelvis_follow_weight"] = 2.0;
-  both = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  both->to(torch::kFloat64);
-  torch::manual_seed(1);
-  randomise(*both);
-  req.temperature = 0.0;
-  const auto drawn_both = both->sample(req).pose;
+  both = r.model();
+  const auto drawn_both = both->sample(r.request()).pose;
   double pelvis = 0;
   for (int64_t t = 0; t < k; ++t)
     pelvis += std::hypot((drawn_both[0][t][0] - pose[0][tau + t][0]).item<double>(),

@@ -288,49 +288,32 @@ torch::Tensor RvaeImpl::kl_to_unit_gaussian(const torch::Tensor& mean, const tor
   return 0.5 * (mean.pow(2) + logvar.exp() - 1.0 - logvar).sum(-1);
 }
 
-LossTerms RvaeImpl::loss(const Batch& batch) {
-  const auto& pose = batch.pose;
-  const auto& control = batch.control;
-  if (pose.dim() != 3 || pose.size(2) != context_.pose_dim || pose.size(1) < 1)
-    throw Error("rvae: pose must be [B, T >= 1, " + std::to_string(context_.pose_dim) + "]");
-  if (control.dim() != 3 || control.size(0) != pose.size(0) || control.size(1) != pose.size(1))
-    throw Error("rvae: control must be [B, T, C] matching pose");
-  const int64_t t = pose.size(1), d = context_.pose_dim;
-  auto pose_in = pose, control_in = control;
+std::pair<torch::Tensor, torch::Tensor> RvaeImpl::dropped_inputs(const torch::Tensor& pose,
+                                                                 const torch::Tensor& control) const {
   const double p = options_.input_dropout;
-  if (is_training() && p > 0) {
-    // Element-wise dropout on the encoders' inputs; masks from the default CPU generator.
-    auto mask = [&](const torch::Tensor& x) {
-      return (torch::bernoulli(torch::full(x.sizes(), 1.0 - p)) / (1.0 - p)).to(x.options());
-    };
-    pose_in = pose * mask(pose);
-    control_in = control * mask(control);
-  }
-  torch::Tensor labels;
-  if (label_dim_ > 0) {
-    const double pl = is_training() ? options_.label_dropout : 0.0;
-    labels = label_features(drop_labels(batch.content, pl), drop_labels(batch.style, pl), pose.size(0),
-                            context_.num_content, context_.num_style, pose.options());
-  }
-  auto post = encode(pose_in);
-  auto hc = encode_control(control_in, labels);
-  auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(post.mean.scalar_type()))
-                 .to(post.mean.device());
-  auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
-  torch::Tensor use_latent;  // [B, L] 1 where a step is set to its latent
+  if (!is_training() || p <= 0) return {pose, control};
+  // Element-wise dropout on the encoders' inputs; masks from the default CPU generator.
+  auto mask = [&](const torch::Tensor& x) {
+    return (torch::bernoulli(torch::full(x.sizes(), 1.0 - p)) / (1.0 - p)).to(x.options());
+  };
+  return {pose * mask(pose), control * mask(control)};
+}
+
+torch::Tensor RvaeImpl::latent_use_mask(const torch::Tensor& latents) const {
+  torch::Tensor use_latent;
   if (options_.free_running >= 1.0) {
     // Algorithm 1's model, in training and validation alike: only the first step takes a latent.
-    use_latent = torch::zeros({z.size(0), z.size(1)});
+    use_latent = torch::zeros({latents.size(0), latents.size(1)});
     use_latent.select(1, 0).fill_(1.0);
   } else if (is_training() && options_.free_running > 0) {
-    use_latent = torch::bernoulli(torch::full({z.size(0), z.size(1)}, 1.0 - options_.free_running));
+    use_latent = torch::bernoulli(torch::full({latents.size(0), latents.size(1)}, 1.0 - options_.free_running));
     use_latent.select(1, 0).fill_(1.0);
   }
-  if (use_latent.defined()) use_latent = use_latent.to(z.device());
-  std::pair<torch::Tensor, torch::Tensor> prior;
-  auto canvas = conditional() ? run_decoder_conditional(hc, z, 1.0, nullptr, &prior) : run_decoder(hc, z, use_latent);
-  auto x_hat = decode_canvas(canvas).narrow(1, 0, t);
-  auto recon = (0.5 * (x_hat - pose).pow(2).sum(-1) + 0.5 * d * kLog2Pi).mean();      // per frame
+  return use_latent.defined() ? use_latent.to(latents.device()) : use_latent;
+}
+
+torch::Tensor RvaeImpl::kl_per_frame(const Posterior& post, const std::pair<torch::Tensor, torch::Tensor>& prior,
+                                     const torch::Tensor& use_latent, int64_t frames) const {
   auto kl_steps = kl_to_unit_gaussian(post.mean, post.logvar);  // [B, L]
   if (conditional() && prior.first.defined()) {
     // Steps after the first against the learned prior: KL of two diagonal Gaussians.
@@ -340,31 +323,65 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
     kl_steps = torch::cat({kl_steps.narrow(1, 0, 1), kl_rest}, 1);
   }
   if (use_latent.defined()) kl_steps = kl_steps * use_latent.to(kl_steps.dtype());  // unused latents cost nothing
-  auto kl = kl_steps.sum(1).mean() / static_cast<double>(t);
+  return kl_steps.sum(1).mean() / static_cast<double>(frames);
+}
+
+torch::Tensor RvaeImpl::l1_penalty(const torch::TensorOptions& options) {
+  auto pen = torch::zeros({}, options);
+  for (const auto& kv : named_parameters())
+    if (kv.key().size() >= 6 && kv.key().compare(kv.key().size() - 6, 6, "weight") == 0)
+      pen = pen + kv.value().abs().sum();
+  return options_.l1 * pen;
+}
+
+void RvaeImpl::add_heel_terms(const torch::Tensor& x_hat, const Batch& batch, torch::Tensor* total,
+                              LossTerms* out) const {
+  if ((options_.foot_contact_weight <= 0 && options_.heel_speed_weight <= 0) || batch.pose.size(1) < 2) return;
+  // Training only, so that the validation loss stays the ELBO, comparable across runs.
+  const auto speeds = planted_heels_.speeds(x_hat, batch.pose, batch.control);  // once for both terms
+  if (options_.foot_contact_weight > 0) {
+    const auto planted = planted_heels_.mean_planted_speed(speeds);
+    if (is_training()) *total = *total + options_.foot_contact_weight * planted;
+    out->terms["planted_heel_mps"] = planted.detach();
+  }
+  if (options_.heel_speed_weight > 0) {
+    const auto error = planted_heels_.mean_speed_error(speeds);
+    if (is_training()) *total = *total + options_.heel_speed_weight * error;
+    out->terms["heel_speed_error_mps"] = error.detach();
+  }
+}
+
+LossTerms RvaeImpl::loss(const Batch& batch) {
+  const auto& pose = batch.pose;
+  const auto& control = batch.control;
+  if (pose.dim() != 3 || pose.size(2) != context_.pose_dim || pose.size(1) < 1)
+    throw Error("rvae: pose must be [B, T >= 1, " + std::to_string(context_.pose_dim) + "]");
+  if (control.dim() != 3 || control.size(0) != pose.size(0) || control.size(1) != pose.size(1))
+    throw Error("rvae: control must be [B, T, C] matching pose");
+  const int64_t t = pose.size(1), d = context_.pose_dim;
+  const auto [pose_in, control_in] = dropped_inputs(pose, control);
+  torch::Tensor labels;
+  if (label_dim_ > 0) {
+    const double pl = is_training() ? options_.label_dropout : 0.0;
+    labels = label_features(drop_labels(batch.content, pl), drop_labels(batch.style, pl), pose.size(0),
+                            context_.num_content, context_.num_style, pose.options());
+  }
+  const Posterior post = encode(pose_in);
+  auto hc = encode_control(control_in, labels);
+  auto eps = torch::randn(post.mean.sizes(), torch::TensorOptions().dtype(post.mean.scalar_type()))
+                 .to(post.mean.device());
+  auto z = post.mean + torch::exp(0.5 * post.logvar) * eps;
+  const torch::Tensor use_latent = latent_use_mask(z);
+  std::pair<torch::Tensor, torch::Tensor> prior;
+  auto canvas = conditional() ? run_decoder_conditional(hc, z, 1.0, nullptr, &prior) : run_decoder(hc, z, use_latent);
+  auto x_hat = decode_canvas(canvas).narrow(1, 0, t);
+  auto recon = (0.5 * (x_hat - pose).pow(2).sum(-1) + 0.5 * d * kLog2Pi).mean();  // per frame
+  auto kl = kl_per_frame(post, prior, use_latent, t);
   const double w = is_training() ? kl_now_ : options_.kl_weight;
   auto total = (recon + w * kl) / static_cast<double>(d);
-  if (options_.l1 > 0 && is_training()) {
-    auto pen = torch::zeros({}, total.options());
-    for (const auto& kv : named_parameters())
-      if (kv.key().size() >= 6 && kv.key().compare(kv.key().size() - 6, 6, "weight") == 0)
-        pen = pen + kv.value().abs().sum();
-    total = total + options_.l1 * pen;
-  }
+  if (options_.l1 > 0 && is_training()) total = total + l1_penalty(total.options());
   LossTerms out;
-  if ((options_.foot_contact_weight > 0 || options_.heel_speed_weight > 0) && t >= 2) {
-    // Training only, so that the validation loss stays the ELBO, comparable across runs.
-    const auto speeds = planted_heels_.speeds(x_hat, pose, control);  // once for both terms
-    if (options_.foot_contact_weight > 0) {
-      const auto planted = planted_heels_.mean_planted_speed(speeds);
-      if (is_training()) total = total + options_.foot_contact_weight * planted;
-      out.terms["planted_heel_mps"] = planted.detach();
-    }
-    if (options_.heel_speed_weight > 0) {
-      const auto error = planted_heels_.mean_speed_error(speeds);
-      if (is_training()) total = total + options_.heel_speed_weight * error;
-      out.terms["heel_speed_error_mps"] = error.detach();
-    }
-  }
+  add_heel_terms(x_hat, batch, &total, &out);
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();
   out.terms["kl"] = kl.detach();

@@ -194,6 +194,19 @@ class RvaeImpl : public MotionModel {
   torch::nn::Linear prior_hidden{nullptr}, prior_out{nullptr};  // conditional prior only
 
  private:
+  // loss() in parts. The encoders' inputs with element-wise input dropout (training only).
+  std::pair<torch::Tensor, torch::Tensor> dropped_inputs(const torch::Tensor& pose, const torch::Tensor& control) const;
+  // [B, L] 1 where a reduced step is set to its latent (free_running); undefined = every step.
+  torch::Tensor latent_use_mask(const torch::Tensor& latents) const;
+  // KL per frame [] of the posterior against the prior of each step (unit Gaussian for the first
+  // step and for the standard prior; the learned prior after it), unused latents costing nothing.
+  torch::Tensor kl_per_frame(const Posterior& post, const std::pair<torch::Tensor, torch::Tensor>& prior,
+                             const torch::Tensor& use_latent, int64_t frames) const;
+  // The L1 weight penalty (options_.l1) over every weight matrix, training only.
+  torch::Tensor l1_penalty(const torch::TensorOptions& options);
+  // The planted-heel and heel-speed terms (training only in total; logged in out either way).
+  void add_heel_terms(const torch::Tensor& x_hat, const Batch& batch, torch::Tensor* total, LossTerms* out) const;
+
   RvaeOptions options_;
   ModelContext context_;
   double kl_now_ = 1.0;
