@@ -103,7 +103,13 @@ void add_prepare_command(CLI::App* data_cmd, Action* action) {
                    "--rest-ends: the share of those copies kept (each clip copy and end chosen by a hash of its "
                    "file, the same on every run)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(CLI::Validator(
+          [](std::string& value) {
+            double f = 0;
+            const bool number = CLI::detail::lexical_cast(value, f);
+            return number && f > 0 && f <= 1 ? std::string() : "must lie in (0, 1], got " + value;
+          },
+          "(0, 1]"));
   prep->add_option("--rest-ramp", o.rest_ramp_s,
                    "--rest-ends: seconds over which the speed falls to rest (rises from it), linearly")
       ->capture_default_str()

@@ -48,6 +48,9 @@ TEST_F(CliModelTest, PrepareRefusesToOverwriteWithoutFlag) {
 TEST_F(CliModelTest, PrepareRejectsBadFlagValues) {
   EXPECT_EQ(run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/x --form quaternions").exit_code, 2);
   EXPECT_EQ(run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/x --val 1.5").exit_code, 2);
+  EXPECT_EQ(
+      run_mosyn("data prepare " + *root_ + "/source --out " + *root_ + "/x --rest-ends 2 --rest-fraction 0").exit_code,
+      2);
   EXPECT_EQ(run_mosyn("data prepare /nonexistent --out " + *root_ + "/x").exit_code, 2);
 }
 
