@@ -56,6 +56,47 @@ void run_prepare(PrepareArgs& a) {
 }
 
 
+// `data prepare`'s augmentation flags (PrepareOptions: mirror, reverse, retime, rest ends).
+void add_augmentation_options(CLI::App* prep, data::PrepareOptions* o) {
+  prep->add_flag("--mirror", o->mirror, "add left/right mirrored copies (labels swapped accordingly)");
+  prep->add_flag("--reverse", o->reverse, "add time-reversed copies");
+  prep->add_option("--retime", o->retime_factors,
+                   "add copies of every clip played this many times as fast, comma-separated (e.g. 1.2,1.4: walks "
+                   "faster than the takes; cadence scales, feet stay planted)")
+      ->delimiter(',');
+  prep->add_option("--retime-min-speed", o->retime_min_speed_mps,
+                   "retime only clips whose mean root speed is at least this many m/s (0 = no bound): the fastest "
+                   "walks played faster widen the speeds without a second cadence at speeds the takes cover")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
+  prep->add_option("--retime-max-speed", o->retime_max_speed_mps,
+                   "retime only clips whose mean root speed is at most this many m/s (0 = no bound), e.g. to leave "
+                   "runs out")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
+  prep->add_option("--rest-ends", o->rest_hold_s,
+                   "add two copies of every clip, one starting from rest and one coming to rest at its "
+                   "double-support frame, the still pose held this many seconds (0 = none): takes that begin and "
+                   "end in stride teach no stop")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 60.0));
+  prep->add_option("--rest-fraction", o->rest_fraction,
+                   "--rest-ends: the share of those copies kept (each clip copy and end chosen by a hash of its "
+                   "file, the same on every run)")
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](std::string& value) {
+            double f = 0;
+            const bool number = CLI::detail::lexical_cast(value, f);
+            return number && f > 0 && f <= 1 ? std::string() : "must lie in (0, 1], got " + value;
+          },
+          "(0, 1]"));
+  prep->add_option("--rest-ramp", o->rest_ramp_s,
+                   "--rest-ends: seconds over which the speed falls to rest (rises from it), linearly")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
+}
+
 // `data prepare`: every PrepareOptions field as a flag.
 void add_prepare_command(CLI::App* data_cmd, Action* action) {
   auto a = std::make_shared<PrepareArgs>();
@@ -82,43 +123,7 @@ void add_prepare_command(CLI::App* data_cmd, Action* action) {
   prep->add_option("--window", o.window_frames, "training window length in frames")->capture_default_str();
   prep->add_option("--hop", o.window_hop, "frames between window starts (overlap = window - hop)")
       ->capture_default_str();
-  prep->add_flag("--mirror", o.mirror, "add left/right mirrored copies (labels swapped accordingly)");
-  prep->add_flag("--reverse", o.reverse, "add time-reversed copies");
-  prep->add_option("--retime", o.retime_factors,
-                   "add copies of every clip played this many times as fast, comma-separated (e.g. 1.2,1.4: walks "
-                   "faster than the takes; cadence scales, feet stay planted)")
-      ->delimiter(',');
-  prep->add_option("--retime-min-speed", o.retime_min_speed_mps,
-                   "retime only clips whose mean root speed is at least this many m/s (0 = no bound): the fastest "
-                   "walks played faster widen the speeds without a second cadence at speeds the takes cover")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 100.0));
-  prep->add_option("--rest-ends", o.rest_hold_s,
-                   "add two copies of every clip, one starting from rest and one coming to rest at its "
-                   "double-support frame, the still pose held this many seconds (0 = none): takes that begin and "
-                   "end in stride teach no stop")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 60.0));
-  prep->add_option("--rest-fraction", o.rest_fraction,
-                   "--rest-ends: the share of those copies kept (each clip copy and end chosen by a hash of its "
-                   "file, the same on every run)")
-      ->capture_default_str()
-      ->check(CLI::Validator(
-          [](std::string& value) {
-            double f = 0;
-            const bool number = CLI::detail::lexical_cast(value, f);
-            return number && f > 0 && f <= 1 ? std::string() : "must lie in (0, 1], got " + value;
-          },
-          "(0, 1]"));
-  prep->add_option("--rest-ramp", o.rest_ramp_s,
-                   "--rest-ends: seconds over which the speed falls to rest (rises from it), linearly")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 10.0));
-  prep->add_option("--retime-max-speed", o.retime_max_speed_mps,
-                   "retime only clips whose mean root speed is at most this many m/s (0 = no bound), e.g. to leave "
-                   "runs out")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 100.0));
+  add_augmentation_options(prep, &o);
   prep->add_option("--stats-from", o.stats_from,
                    "standardise with the stats.json of this dataset or run directory instead of this dataset's own "
                    "(same features), so a model warm-started from that run keeps its input units")
