@@ -375,9 +375,11 @@ constexpr double kRestMinSpeedMps = 0.3;
 
 // Whether the copy at rest of one clip copy and end is kept (PrepareOptions::rest_fraction): its
 // FNV-1a hash (source file, flags, the retime factor of a retimed copy, end), mapped to [0, 1),
-// under the fraction. The same on every machine and run.
-bool rest_copy_kept(double fraction, const std::string& source, bool mirrored, bool reversed, bool retimed,
-                    double retime_factor, RestEnd end) {
+// under the fraction. retime_factor 0: a copy at the take's own speed. The same on every machine
+// and run.
+bool rest_copy_kept(double fraction, const std::string& source, bool mirrored, bool reversed, double retime_factor,
+                    RestEnd end) {
+  const bool retimed = retime_factor > 0;
   if (fraction >= 1) return true;
   std::uint64_t h = 1469598103934665603ull;
   auto mix = [&h](unsigned char byte) { h = (h ^ byte) * 1099511628211ull; };
@@ -437,27 +439,27 @@ std::vector<ClipRecord> encode_with_augmentation(const DatasetInfo& info, const 
     // The copies starting from and coming to rest (PrepareOptions::rest_hold_s), where the clip
     // moves (a standing take needs none) and has two legs and a double-support frame with room for
     // the ramp.
+    // retime_factor 0: a copy at the take's own speed.
     const auto add_at_rest = [&](const Skeleton& skeleton, const Motion& motion, bool mirrored, bool reversed,
-                                 bool retimed, double retime_factor) {
+                                 double retime_factor) {
       if (mean_root_speed_mps(skeleton, motion, info.layout.root_joint) < kRestMinSpeedMps) return;
       for (const RestEnd end : {RestEnd::kStart, RestEnd::kEnd}) {
-        if (!rest_copy_kept(info.augment_rest_fraction, item.source, mirrored, reversed, retimed, retime_factor, end))
-          continue;
+        if (!rest_copy_kept(info.augment_rest_fraction, item.source, mirrored, reversed, retime_factor, end)) continue;
         const int rest_frame = double_support_frame(skeleton, motion, end, info.augment_rest_ramp_s / 2);
         if (rest_frame < 0) continue;
         add(come_to_rest(motion, rest_frame, end, info.augment_rest_ramp_s, info.augment_rest_hold_s), mirrored,
-            reversed, retimed, true);
+            reversed, retime_factor > 0, true);
       }
     };
     for (const Copy& c : copies) add(c.motion, c.mirrored, c.reversed, false);
     if (info.augment_rest_hold_s > 0)
-      for (const Copy& c : copies) add_at_rest(clip.skeleton, c.motion, c.mirrored, c.reversed, false, 1.0);
+      for (const Copy& c : copies) add_at_rest(clip.skeleton, c.motion, c.mirrored, c.reversed, 0.0);
     const std::vector<double> factors = retime_band_holds(info, clip) ? info.augment_retime : std::vector<double>{};
     for (double factor : factors)
       for (const Copy& c : copies) {
         const Motion retimed = retime(c.motion, factor);
         if (retimed.num_frames >= 2) add(retimed, c.mirrored, c.reversed, true);
-        if (info.augment_rest_hold_s > 0) add_at_rest(clip.skeleton, retimed, c.mirrored, c.reversed, true, factor);
+        if (info.augment_rest_hold_s > 0) add_at_rest(clip.skeleton, retimed, c.mirrored, c.reversed, factor);
       }
   } catch (const Error& e) {
     throw Error(item.path + ": " + e.what());

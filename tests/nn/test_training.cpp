@@ -658,25 +658,26 @@ TEST(Training, SpeedBalanceFlattensTheDrawsOverRootSpeed) {
   for (int c = 0; c < 4; ++c) split.windows.push_back({c, 0, 0});
   const std::vector<double> even(4, 1.0);
 
-  const auto shares = training::speed_bin_shares(split, even, 3, fps);
+  const training::SpeedBalance flat_balance = training::speed_balanced(split, even, 3, fps, 1.0);
+  const auto& shares = flat_balance.shares_before;
   ASSERT_EQ(shares.size(), 2u);
   EXPECT_DOUBLE_EQ(shares.at(2), 0.75);  // 1.0-1.5 m/s
   EXPECT_DOUBLE_EQ(shares.at(6), 0.25);  // 3.0-3.5 m/s
 
-  const std::vector<double> flat = training::speed_balanced_weights(split, even, 3, fps, 1.0);
+  const std::vector<double>& flat = flat_balance.weights;
   EXPECT_NEAR(flat[3] / flat[0], 3.0, 1e-12);
-  const auto flat_shares = training::speed_bin_shares(split, flat, 3, fps);
+  const auto& flat_shares = flat_balance.shares_after;
   EXPECT_NEAR(flat_shares.at(2), 0.5, 1e-12);
   EXPECT_NEAR(flat_shares.at(6), 0.5, 1e-12);
-  const std::vector<double> root = training::speed_balanced_weights(split, even, 3, fps, 0.5);
+  const std::vector<double> root = training::speed_balanced(split, even, 3, fps, 0.5).weights;
   EXPECT_NEAR(root[3] / root[0], std::sqrt(3.0), 1e-12);
-  EXPECT_EQ(training::speed_balanced_weights(split, even, 3, fps, 0.0), even);
+  EXPECT_EQ(training::speed_balanced(split, even, 3, fps, 0.0).weights, even);
   // Weights already uneven (by frames) are scaled, not replaced.
   const std::vector<double> by_frames = {2, 1, 1, 4};
-  const std::vector<double> scaled = training::speed_balanced_weights(split, by_frames, 3, fps, 1.0);
+  const std::vector<double> scaled = training::speed_balanced(split, by_frames, 3, fps, 1.0).weights;
   EXPECT_NEAR(scaled[0] / scaled[1], 2.0, 1e-12);
   EXPECT_NEAR(scaled[3] / (scaled[0] + scaled[1] + scaled[2]), 1.0, 1e-12);  // 4 of 8 vs 4 of 8
-  EXPECT_THROW(training::speed_balanced_weights(split, {1.0}, 3, fps, 1.0), Error);
+  EXPECT_THROW(training::speed_balanced(split, {1.0}, 3, fps, 1.0), Error);
 
   nlohmann::json bad = {{"speed_balance", 1.5}};
   EXPECT_THROW(TrainOptions::from_json(bad), Error);

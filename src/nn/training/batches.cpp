@@ -81,23 +81,19 @@ std::map<int, double> bin_shares(const std::vector<int>& bins, const std::vector
 
 }  // namespace
 
-std::map<int, double> speed_bin_shares(const SplitWindows& split, const std::vector<double>& weights,
-                                       int control_dim, double fps) {
-  if (weights.size() != split.windows.size()) throw Error("speed_bin_shares: one weight per window expected");
-  return bin_shares(window_speed_bins(split, control_dim, fps), weights);
-}
-
-std::vector<double> speed_balanced_weights(const SplitWindows& split, const std::vector<double>& weights,
-                                           int control_dim, double fps, double exponent) {
-  if (weights.size() != split.windows.size()) throw Error("speed_balanced_weights: one weight per window expected");
+SpeedBalance speed_balanced(const SplitWindows& split, const std::vector<double>& weights, int control_dim,
+                            double fps, double exponent) {
+  if (weights.size() != split.windows.size()) throw Error("speed_balanced: one weight per window expected");
   const std::vector<int> bins = window_speed_bins(split, control_dim, fps);
-  const std::map<int, double> share = bin_shares(bins, weights);
-  std::vector<double> balanced(weights.size());
+  SpeedBalance out;
+  out.shares_before = bin_shares(bins, weights);
+  out.weights.resize(weights.size());
   for (size_t i = 0; i < weights.size(); ++i) {
-    const double s = share.at(bins[i]);
-    balanced[i] = s > 0 ? weights[i] * std::pow(s, -exponent) : 0.0;
+    const double s = out.shares_before.at(bins[i]);
+    out.weights[i] = s > 0 ? weights[i] * std::pow(s, -exponent) : 0.0;
   }
-  return balanced;
+  out.shares_after = bin_shares(bins, out.weights);
+  return out;
 }
 
 SplitWindows validation_windows(const data::Dataset& dataset, int window, int max_windows, int min_short_frames) {

@@ -32,7 +32,7 @@ SplitWindows training_windows(const data::Dataset& dataset, int window, int min_
 // short clip's one window gets all of it). Sum = the frames of the clips that give a window.
 std::vector<double> clip_frame_weights(const SplitWindows& split);
 
-// Width of the root-speed bins of speed_balanced_weights, m/s.
+// Width of the root-speed bins of speed_balanced, m/s.
 constexpr double kSpeedBinMps = 0.5;
 
 // Mean horizontal root speed of a clip, m/s: the mean length of its controls' (dx, dz) (the first
@@ -40,16 +40,19 @@ constexpr double kSpeedBinMps = 0.5;
 double clip_root_speed_mps(const data::ClipRecord& clip, int control_dim, double fps);
 
 // Drawing weights (same order as split.windows) that flatten how the draws share out over root
-// speed (TrainOptions::speed_balance): every window's weight times s^-exponent, s the share of the
-// total weight held by the windows of clips in its kSpeedBinMps-wide bin of mean root speed. With
-// exponent 1 every occupied bin is drawn alike, with 0 nothing changes. Rare speeds (the
-// Bandai-Namco fast runs: 3-3.7 m/s, 3% of the locomotion frames) are then drawn more often.
-std::vector<double> speed_balanced_weights(const SplitWindows& split, const std::vector<double>& weights,
-                                           int control_dim, double fps, double exponent);
+// speed (TrainOptions::speed_balance), and the share of the draws in each speed bin (index
+// floor(speed / kSpeedBinMps)) before and after, for the log.
+struct SpeedBalance {
+  std::vector<double> weights;
+  std::map<int, double> shares_before, shares_after;
+};
 
-// Share of `weights` in each speed bin (bin index = floor(speed / kSpeedBinMps)), for logging.
-std::map<int, double> speed_bin_shares(const SplitWindows& split, const std::vector<double>& weights,
-                                       int control_dim, double fps);
+// Every window's weight times s^-exponent, s the share of the total weight held by the windows of
+// clips in its kSpeedBinMps-wide bin of mean root speed. With exponent 1 every occupied bin is drawn
+// alike, with 0 nothing changes. Rare speeds (the Bandai-Namco fast runs: 3-3.7 m/s, 3% of the
+// locomotion frames) are then drawn more often. Throws mosyn::Error unless one weight per window.
+SpeedBalance speed_balanced(const SplitWindows& split, const std::vector<double>& weights, int control_dim,
+                            double fps, double exponent);
 
 // The fixed validation subset: at most max_windows windows (hop window / 2) spread evenly over
 // the val split, in order. Empty when the split has no long-enough clip or max_windows <= 0.

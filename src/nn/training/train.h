@@ -70,7 +70,7 @@ struct TrainOptions {
   std::string window_sampling = "windows";
   // Flattens the draws over mean root speed: each window's weight (as window_sampling gives it)
   // times s^-speed_balance, s the share of the draws held by its clip's 0.5-m/s bin of mean root
-  // speed (training::speed_balanced_weights). 0 = off; 1 = every occupied speed bin drawn alike.
+  // speed (training::speed_balanced). 0 = off; 1 = every occupied speed bin drawn alike.
   // For data whose rare speeds the model gets wrong (Bandai-Namco's fast runs, 3% of the frames).
   double speed_balance = 0;
   double lr = 1e-3;               // peak learning rate (Adam; the default stage's)

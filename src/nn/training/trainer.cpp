@@ -13,12 +13,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <optional>
-#include <iomanip>
 #include <random>
 #include <sstream>
 
@@ -263,8 +263,8 @@ std::string speed_balance_message(const std::map<int, double>& before, const std
   out << "speed balance: share of the draws per mean root speed (m/s)";
   for (const auto& [bin, share] : before) {
     out << (bin == before.begin()->first ? " " : ", ") << std::fixed << std::setprecision(1)
-        << bin * training::kSpeedBinMps << "-" << (bin + 1) * training::kSpeedBinMps << " " << std::setprecision(1)
-        << 100 * share << "% -> " << 100 * after.at(bin) << "%";
+        << bin * training::kSpeedBinMps << "-" << (bin + 1) * training::kSpeedBinMps << " " << 100 * share << "% -> "
+        << 100 * after.at(bin) << "%";
   }
   return out.str();
 }
@@ -285,12 +285,10 @@ void Trainer::prepare_data() {
     std::vector<double> weights = opts_.window_sampling == "frames" ? training::clip_frame_weights(train_)
                                                                     : std::vector<double>(train_.windows.size(), 1.0);
     if (opts_.speed_balance > 0) {
-      const double fps = dataset_.info().fps;
-      const std::vector<double> balanced =
-          training::speed_balanced_weights(train_, weights, context_.control_dim, fps, opts_.speed_balance);
-      message(speed_balance_message(training::speed_bin_shares(train_, weights, context_.control_dim, fps),
-                                    training::speed_bin_shares(train_, balanced, context_.control_dim, fps)));
-      weights = balanced;
+      training::SpeedBalance balance = training::speed_balanced(train_, weights, context_.control_dim,
+                                                                dataset_.info().fps, opts_.speed_balance);
+      message(speed_balance_message(balance.shares_before, balance.shares_after));
+      weights = std::move(balance.weights);
     }
     pick_weighted_.emplace(weights.begin(), weights.end());
   }
