@@ -47,7 +47,11 @@ struct InitReport {
   std::vector<std::string> grown;     // tensors larger by one dimension than the stored ones:
                                       // the stored block copied, the new part zero (e.g. the input
                                       // weights of a condition added since, which then starts
-                                      // with no effect)
+                                      // with no effect); and the tensors of a recurrent layer
+                                      // made wider (more hidden units): each gate's stored rows
+                                      // copied, the new units' rows freshly initialised, the
+                                      // columns reading new units zero, so the model computes
+                                      // what the stored one did until training moves it
   std::vector<std::string> missing;   // tensors not in the checkpoint or of another shape: left
                                       // as initialised
   std::vector<std::string> relabelled;  // label inputs whose columns were matched by label name

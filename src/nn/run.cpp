@@ -1,5 +1,6 @@
 #include "nn/run.h"
 
+#include <torch/nn/modules/rnn.h>
 #include <torch/serialize.h>
 
 #include <algorithm>
@@ -73,6 +74,42 @@ Fit copy_what_fits(torch::Tensor& target, const torch::Tensor& stored, const std
   return Fit::kGrown;
 }
 
+// Gates stacked along dim 0 of a recurrent layer's tensors (weight_ih_lK [gates*H, in],
+// weight_hh_lK [gates*H, H], bias_ih_lK / bias_hh_lK [gates*H]); 0 for any other module.
+int recurrent_gates(const torch::nn::Module& module) {
+  if (dynamic_cast<const torch::nn::LSTMImpl*>(&module)) return 4;
+  if (dynamic_cast<const torch::nn::GRUImpl*>(&module)) return 3;
+  if (dynamic_cast<const torch::nn::RNNImpl*>(&module)) return 1;
+  return 0;
+}
+
+// A recurrent tensor of a wider layer (more hidden units, and or more input columns). The gates
+// are stacked, so the stored block cannot go in as one piece: each gate's stored rows go to the
+// first rows of that gate. The new units' own rows keep their fresh initialisation (zeros would
+// leave them dead: zero state, zero gradient), and the columns through which the old units would
+// read new inputs or new units are zero, so the old units compute exactly what they did; whatever
+// reads the layer's output grows its input columns at zero (copy_what_fits), so the wider model
+// starts as the stored one. kSkipped when the shapes are not such a widening.
+Fit copy_widened_recurrent(torch::Tensor& target, const torch::Tensor& stored, int gates, const std::string& name) {
+  check_finite(stored, name);
+  if (gates <= 0 || stored.dim() != target.dim() || stored.dim() < 1 || stored.dim() > 2) return Fit::kSkipped;
+  if (stored.size(0) % gates != 0 || target.size(0) % gates != 0) return Fit::kSkipped;
+  const int64_t units_stored = stored.size(0) / gates, units = target.size(0) / gates;
+  if (units_stored > units) return Fit::kSkipped;
+  if (stored.dim() == 2 && stored.size(1) > target.size(1)) return Fit::kSkipped;
+  for (int64_t g = 0; g < gates; ++g) {
+    auto rows = target.narrow(0, g * units, units_stored);
+    const auto from = stored.narrow(0, g * units_stored, units_stored);
+    if (stored.dim() == 1) {
+      rows.copy_(from);
+      continue;
+    }
+    rows.narrow(1, 0, stored.size(1)).copy_(from);
+    rows.narrow(1, stored.size(1), target.size(1) - stored.size(1)).zero_();
+  }
+  return Fit::kGrown;
+}
+
 // Label columns moved by name (InitLabels). Returns false when the shapes do not fit the two
 // vocabularies, leaving target alone.
 bool copy_relabelled(torch::Tensor& target, const torch::Tensor& stored, const LabelInput& in, const InitLabels& labels) {
@@ -114,6 +151,7 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
                  InitContext& ctx) {
   InitReport* report = ctx.report;
   torch::NoGradGuard no_grad;
+  const int gates = recurrent_gates(module);
   auto take = [&](torch::Tensor& target, const std::string& key, bool is_buffer) {
     torch::Tensor stored;
     const std::string name = prefix + key;
@@ -131,7 +169,9 @@ void init_module(torch::nn::Module& module, torch::serialize::InputArchive& arch
       }
       return;
     }
-    switch (copy_what_fits(target, stored.to(target.dtype()), name)) {
+    const torch::Tensor converted = stored.to(target.dtype());
+    const bool widened = gates > 0 && converted.sizes() != target.sizes();
+    switch (widened ? copy_widened_recurrent(target, converted, gates, name) : copy_what_fits(target, converted, name)) {
       case Fit::kExact: ++report->copied; break;
       case Fit::kGrown: report->grown.push_back(name); break;
       case Fit::kSkipped: report->missing.push_back(name); break;

@@ -240,7 +240,7 @@ void Trainer::build_model(const nlohmann::json& model_config) {
     const InitReport r = init_from_checkpoint(from, *model_, device_, &labels);
     std::string text = "initialised from " + from + " (step " + std::to_string(r.step) + "): " +
                        std::to_string(r.copied) + " tensors copied";
-    if (!r.grown.empty()) text += ", " + std::to_string(r.grown.size()) + " grown (new inputs start at zero)";
+    if (!r.grown.empty()) text += ", " + std::to_string(r.grown.size()) + " grown (new inputs and units start silent)";
     if (!r.relabelled.empty())
       text += ", " + std::to_string(r.relabelled.size()) + " label inputs matched by label name (new labels start at zero)";
     if (!r.missing.empty()) text += ", " + std::to_string(r.missing.size()) + " left as initialised";
