@@ -86,14 +86,16 @@ torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const t
   return mean_over(torch::relu(threshold - s.made_mps), (s.real_mps >= threshold).to(s.made_mps.dtype()), valid);
 }
 
-torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t window,
-                                                 const torch::Tensor& valid) const {
+torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t window, const torch::Tensor& valid,
+                                                 bool relative_to_data) const {
   if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
   const int64_t n = s.made_mps.size(1);
   if (n < window) return torch::zeros({}, s.made_mps.options());
   // [B, n, 2] -> [B, n - window + 1, 2, window]: every run of `window` steps.
   const auto runs = [&](const torch::Tensor& x) { return x.expand_as(s.made_mps).unfold(1, window, 1); };
-  const auto above = std::get<0>(runs(s.made_mps - planted_threshold(s)).min(-1));
+  const auto above = relative_to_data
+                         ? std::get<0>(runs(s.made_mps).min(-1)) - std::get<0>(runs(s.real_mps.detach()).min(-1))
+                         : std::get<0>(runs(s.made_mps - planted_threshold(s)).min(-1));
   const auto planted = std::get<0>(runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
   torch::Tensor whole;  // [B, n - window + 1]: 1 where no step of the run is padded
   if (valid.defined()) whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));

@@ -85,7 +85,11 @@ class PlantedHeelTerm {
   // as from speeds() (steps of one sequence along dim 1); valid (optional [B, n]) leaves out every
   // run holding a padded step. A scalar, differentiable in made (through each run's slowest step);
   // 0 when no run counts (n < window included). Throws mosyn::Error when window < 1.
-  torch::Tensor mean_missed_stance(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {}) const;
+  // relative_to_data: the bar of each run is the real heel's slowest speed in the same run instead
+  // of the planted threshold, so a heel that creeps just under the threshold through its stance
+  // (0.1-0.15 m/s: the drawn paths' slide of session 33) pays the difference from the data's plant.
+  torch::Tensor mean_missed_stance(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {},
+                                   bool relative_to_data = false) const;
 
   // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
   // positions form, which is relative to the root's floor point and heading) over the frames of

@@ -232,6 +232,11 @@ TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
   // Fewer steps than a run: nothing counts. A run of no steps is an error.
   EXPECT_NEAR(term.mean_missed_stance(speeds, 7).item<double>(), 0.0, 1e-12);
   EXPECT_THROW(term.mean_missed_stance(speeds, 0), Error);
+  // Relative to the data: each counted run's bar is the real heel's slowest step there. Heel 0's
+  // stop at 0.1 m/s, free under the 0.15 threshold, now pays 0.05 over the data's 0.05; its first
+  // run 0.85; heel 1's data stand at 0, so its runs pay their whole slowest speed.
+  EXPECT_NEAR(term.mean_missed_stance(speeds, 3, {}, /*relative_to_data=*/true).item<double>(),
+              (0.85 + 0.05 + 0.5 + 0.6 + 0.7 + 0.8) / 6, 1e-12);
 }
 
 // with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that

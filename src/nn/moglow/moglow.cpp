@@ -102,6 +102,9 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
                  at_least(0.05))
           .written_if([](const O& o) { return o.stance_weight > 0; })
+          .field("stance_relative", &O::stance_relative,
+                 "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
+          .written_if([](const O& o) { return o.stance_relative; })
           .field("phase_locked_frames", &O::phase_locked_frames,
                  "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
           .written_if([](const O& o) { return o.phase_locked_frames > 0; })
@@ -494,7 +497,7 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
                                           sequence(speeds.planted_below_mps, n)};
     const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
     out.missed_stance_mps =
-        planted_heels_.mean_missed_stance(all, window, drawn_valid);
+        planted_heels_.mean_missed_stance(all, window, drawn_valid, options_.stance_relative);
   }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's

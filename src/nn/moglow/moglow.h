@@ -105,6 +105,11 @@ struct MoGlowOptions {
   // Logged as missed_stance_mps.
   double stance_weight = 0.0;
   double stance_window_s = 1.0;  // longer than a stride of the slowest gait the data holds
+  // The stance term's bar in each run: the data heel's slowest speed there (true) instead of the
+  // planted threshold (false). Why (session 33): drawn free, continued weights' stance feet crept
+  // backward at 0.1-0.15 m/s, under the threshold, and the toes with them slid past the independent
+  // check's 0.1 m/s, where real planted heels stop (0.06-0.07 m/s at the slowest).
+  bool stance_relative = false;
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
   int phase_locked_frames = 0;
