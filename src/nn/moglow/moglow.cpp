@@ -44,10 +44,72 @@ std::string lookahead_problem(const MoGlowOptions& o) {
   return "";
 }
 
+// The training terms on free-running draws (heel, pelvis, stance, toe): positions form only.
+OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
+  using O = MoGlowOptions;
+  return std::move(fields)
+          .field("foot_contact_weight", &O::foot_contact_weight,
+             "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.foot_contact_weight > 0; })
+      .field("foot_contact_rollout", &O::foot_contact_rollout,
+             "frames of the planted-heel term generated from the model's own history; 0 = teacher-forced",
+             at_least(0))
+      .written_if([](const O& o) { return o.foot_contact_rollout > 0; })
+      .field("foot_contact_temperature", &O::foot_contact_temperature,
+             "latent standard deviation of the planted-heel term's draws", at_least(0.0))
+      .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
+      .field("heel_speed_weight", &O::heel_speed_weight,
+             "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.heel_speed_weight > 0; })
+      .field("lift_off_weight", &O::lift_off_weight,
+             "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.lift_off_weight > 0; })
+      .field("pelvis_follow_weight", &O::pelvis_follow_weight,
+             "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
+      .field("planted_speed_fraction", &O::planted_speed_fraction,
+             "training: heel terms' planted threshold max(0.15 m/s, this x root speed); 0 = 0.15 m/s", at_least(0.0))
+      .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
+      .field("stance_weight", &O::stance_weight,
+             "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.stance_weight > 0; })
+      .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
+             at_least(0.05))
+      .written_if([](const O& o) { return o.stance_weight > 0; })
+      .field("stance_relative", &O::stance_relative,
+             "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
+      .written_if([](const O& o) { return o.stance_relative; })
+      .field("phase_locked_frames", &O::phase_locked_frames,
+             "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
+      .written_if([](const O& o) { return o.phase_locked_frames > 0; })
+      .field("cold_start_fraction", &O::cold_start_fraction,
+             "training: share of windows whose heel-term draws start from the mean pose", in_range(0.0, 1.0))
+      .written_if([](const O& o) { return o.cold_start_fraction > 0; })
+      .rule([](const O& o) -> std::string {
+        return o.cold_start_fraction > 0 && o.foot_contact_rollout < 1
+                   ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
+                   : "";
+      })
+      .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
+      .written_if([](const O& o) { return o.toe_terms; })
+      .field("toe_slide_weight", &O::toe_slide_weight,
+             "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.toe_slide_weight > 0; })
+      .rule([](const O& o) -> std::string {
+        return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
+                   ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
+                   : "";
+      });
+}
+
 const OptionFields<MoGlowOptions>& moglow_fields() {
   using O = MoGlowOptions;
   static const auto fields =
-      OptionFields<O>("moglow")
+      with_foot_terms(OptionFields<O>("moglow")
           .field("preset", &O::preset, "named defaults: \"default\" or \"paper\" (K=16, 2 x 512 LSTM, tau=10)")
           .field("num_steps", &O::num_steps, "K, steps of flow", at_least(1))
           .field("hidden", &O::hidden, "LSTM units per layer in each coupling network", at_least(1))
@@ -69,63 +131,7 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .written_if([](const O& o) { return o.residual; })
           .field("history_noise", &O::history_noise,
                  "training: std of Gaussian noise on the poses conditioned on (standardised units)", at_least(0.0))
-          .written_if([](const O& o) { return o.history_noise > 0; })
-          .field("foot_contact_weight", &O::foot_contact_weight,
-                 "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
-          .written_if([](const O& o) { return o.foot_contact_weight > 0; })
-          .field("foot_contact_rollout", &O::foot_contact_rollout,
-                 "frames of the planted-heel term generated from the model's own history; 0 = teacher-forced",
-                 at_least(0))
-          .written_if([](const O& o) { return o.foot_contact_rollout > 0; })
-          .field("foot_contact_temperature", &O::foot_contact_temperature,
-                 "latent standard deviation of the planted-heel term's draws", at_least(0.0))
-          .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
-          .field("heel_speed_weight", &O::heel_speed_weight,
-                 "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
-                 at_least(0.0))
-          .written_if([](const O& o) { return o.heel_speed_weight > 0; })
-          .field("lift_off_weight", &O::lift_off_weight,
-                 "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
-                 at_least(0.0))
-          .written_if([](const O& o) { return o.lift_off_weight > 0; })
-          .field("pelvis_follow_weight", &O::pelvis_follow_weight,
-                 "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
-                 at_least(0.0))
-          .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
-          .field("planted_speed_fraction", &O::planted_speed_fraction,
-                 "training: heel terms' planted threshold max(0.15 m/s, this x root speed); 0 = 0.15 m/s", at_least(0.0))
-          .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
-          .field("stance_weight", &O::stance_weight,
-                 "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
-                 at_least(0.0))
-          .written_if([](const O& o) { return o.stance_weight > 0; })
-          .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
-                 at_least(0.05))
-          .written_if([](const O& o) { return o.stance_weight > 0; })
-          .field("stance_relative", &O::stance_relative,
-                 "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
-          .written_if([](const O& o) { return o.stance_relative; })
-          .field("phase_locked_frames", &O::phase_locked_frames,
-                 "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
-          .written_if([](const O& o) { return o.phase_locked_frames > 0; })
-          .field("cold_start_fraction", &O::cold_start_fraction,
-                 "training: share of windows whose heel-term draws start from the mean pose", in_range(0.0, 1.0))
-          .written_if([](const O& o) { return o.cold_start_fraction > 0; })
-          .rule([](const O& o) -> std::string {
-            return o.cold_start_fraction > 0 && o.foot_contact_rollout < 1
-                       ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
-                       : "";
-          })
-          .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
-          .written_if([](const O& o) { return o.toe_terms; })
-          .field("toe_slide_weight", &O::toe_slide_weight,
-                 "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
-          .written_if([](const O& o) { return o.toe_slide_weight > 0; })
-          .rule([](const O& o) -> std::string {
-            return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
-                       ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
-                       : "";
-          })
+          .written_if([](const O& o) { return o.history_noise > 0; }))
           .rule(lookahead_problem);
   return fields;
 }
