@@ -94,7 +94,7 @@ torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t w
   // [B, n, 2] -> [B, n - window + 1, 2, window]: every run of `window` steps.
   const auto runs = [&](const torch::Tensor& x) { return x.expand_as(s.made_mps).unfold(1, window, 1); };
   const auto above = relative_to_data
-                         ? std::get<0>(runs(s.made_mps).min(-1)) - std::get<0>(runs(s.real_mps.detach()).min(-1))
+                         ? std::get<0>(runs(s.made_mps).min(-1)) - std::get<0>(runs(s.real_mps).min(-1))
                          : std::get<0>(runs(s.made_mps - planted_threshold(s)).min(-1));
   const auto planted = std::get<0>(runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
   torch::Tensor whole;  // [B, n - window + 1]: 1 where no step of the run is padded

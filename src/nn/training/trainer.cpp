@@ -13,8 +13,8 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <iomanip>
 #include <fstream>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <memory>
