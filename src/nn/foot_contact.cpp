@@ -7,9 +7,10 @@
 namespace mosyn::nn {
 
 PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction,
-                                 bool with_toes)
+                                 bool with_toes, double toe_weight)
     : fps_(context.fps), planted_speed_fraction_(planted_speed_fraction) {
   if (!(planted_speed_fraction >= 0)) throw Error(family + ": planted_speed_fraction must not be negative");
+  if (!(toe_weight > 0 && toe_weight <= 1)) throw Error(family + ": toe_term_weight must be in (0, 1]");
   const Skeleton& skeleton = context.skeleton;
   const std::string who = family + ": a heel or pelvis term (foot_contact_weight, heel_speed_weight, lift_off_weight, pelvis_follow_weight) needs ";
   if (context.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context.pose_dim)
@@ -29,6 +30,7 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
   if (with_toes) {
     if (toes_.empty()) throw Error(family + ": toe_terms needs a joint below each ankle (the toes)");
     heels_.insert(heels_.end(), toes_.begin(), toes_.end());
+    if (toe_weight != 1.0) joint_weight_ = torch::tensor({1.0, 1.0, toe_weight, toe_weight});
   }
   pose_mean_ = torch::tensor(st.pose_mean);
   pose_std_ = torch::tensor(st.pose_std);
@@ -63,9 +65,12 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
 namespace {
 
 // Mean of value [B, T-1, K] (K heels, or 1) over the entries where `counted` (0/1, same shape) is 1
-// and valid ([B, T-1], optional) allows; 0 when none is.
-torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const torch::Tensor& valid) {
+// and valid ([B, T-1], optional) allows, each joint k weighted by joint_weight[k] (optional [K]);
+// 0 when none is.
+torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const torch::Tensor& valid,
+                        const torch::Tensor& joint_weight = {}) {
   if (valid.defined()) counted = counted * valid.to(value.options()).unsqueeze(-1);
+  if (joint_weight.defined()) counted = counted * joint_weight.to(value.options());
   return (value * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
@@ -78,12 +83,13 @@ torch::Tensor planted_threshold(const PlantedHeelTerm::HeelSpeeds& s) {
 }  // namespace
 
 torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
-  return mean_over(s.made_mps, (s.real_mps < planted_threshold(s)).to(s.made_mps.dtype()), valid);
+  return mean_over(s.made_mps, (s.real_mps < planted_threshold(s)).to(s.made_mps.dtype()), valid, joint_weight_);
 }
 
 torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
   const auto threshold = planted_threshold(s);
-  return mean_over(torch::relu(threshold - s.made_mps), (s.real_mps >= threshold).to(s.made_mps.dtype()), valid);
+  return mean_over(torch::relu(threshold - s.made_mps), (s.real_mps >= threshold).to(s.made_mps.dtype()), valid,
+                   joint_weight_);
 }
 
 torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t window, const torch::Tensor& valid,
@@ -99,7 +105,7 @@ torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t w
   const auto planted = std::get<0>(runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
   torch::Tensor whole;  // [B, n - window + 1]: 1 where no step of the run is padded
   if (valid.defined()) whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
-  return mean_over(torch::relu(above), planted, whole);
+  return mean_over(torch::relu(above), planted, whole, joint_weight_);
 }
 
 torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
@@ -144,7 +150,7 @@ torch::Tensor PlantedHeelTerm::mean_excess_toe_slide(const torch::Tensor& made, 
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {
-  return mean_over((s.made_mps - s.real_mps).abs(), torch::ones_like(s.made_mps), valid);
+  return mean_over((s.made_mps - s.real_mps).abs(), torch::ones_like(s.made_mps), valid, joint_weight_);
 }
 
 }  // namespace mosyn::nn

@@ -29,9 +29,11 @@ class PlantedHeelTerm {
   // so at the fixed threshold the runs barely reach the terms. With with_toes the terms read each
   // ankle's first child joint (the toes) beside the heels, [.., 4] instead of [.., 2] below: the
   // independent check's skating reads the toes, which slide while a heel stands (session 30).
-  // Throws mosyn::Error when the context cannot give the heels (or toes) or f is negative.
+  // toe_weight weighs each toe against a heel (1) in the terms' means: with the toes at full
+  // weight the drawn feet planted harder than real ones (session 33). Throws mosyn::Error when the
+  // context cannot give the heels (or toes), f is negative or toe_weight is not in (0, 1].
   PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction = 0.0,
-                  bool with_toes = false);
+                  bool with_toes = false, double toe_weight = 1.0);
 
   // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
   // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
@@ -134,6 +136,7 @@ class PlantedHeelTerm {
   std::vector<int> toes_;
   double fps_ = 30.0;
   double planted_speed_fraction_ = 0.0;
+  torch::Tensor joint_weight_;  // [K] of the joints read (1 a heel, toe_weight a toe); undefined: all 1
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]
 };
 

@@ -261,6 +261,13 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
   for (int64_t t = frames / 2; t < frames; ++t) made[0][t][toe_x] += 0.01 * (t - frames / 2 + 1);
   EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 2 * 10 * 0.3 / (19 * 4), 1e-4);
   EXPECT_NEAR(heels.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 2), 1e-4);
+  // The toes at weight 0.25: a weighted mean, each toe's steps counting a quarter of a heel's.
+  const PlantedHeelTerm light(ctx, "test", 0.0, true, 0.25);
+  const double weighted = (10 * 0.3 + 0.25 * 10 * 0.3) / (19 * 2 + 0.25 * 19 * 2);
+  EXPECT_NEAR(light.mean_planted_speed(made, real.pose, real.control).item<double>(), weighted, 1e-4);
+  EXPECT_NEAR(light.mean_speed_error(made, real.pose, real.control).item<double>(), weighted, 1e-4);
+  EXPECT_THROW(PlantedHeelTerm(ctx, "test", 0.0, true, 0.0), Error);
+  EXPECT_THROW(PlantedHeelTerm(ctx, "test", 0.0, true, 1.5), Error);
 }
 
 // The toe-slide term by hand (the independent check's skating as a cost): on the floor (its lowest

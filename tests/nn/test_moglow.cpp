@@ -731,7 +731,11 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("stance_window_s").get<double>(), window / 30.0);
   cfg["toe_terms"] = true;  // read, kept (its effect: test_foot_contact's WithToesReadsEachAnklesChild)
   EXPECT_TRUE(create_model("moglow", cfg, ctx)->config().at("toe_terms").get<bool>());
-  cfg.erase("toe_terms");
+  cfg["toe_term_weight"] = 0.3;  // read, kept (its effect: WithToesReadsEachAnklesChild)
+  EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("toe_term_weight").get<double>(), 0.3);
+  cfg.erase("toe_terms");  // a toe weight without the toes is an error
+  EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
+  cfg.erase("toe_term_weight");
   for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
            {"stance_weight", -1.0}, {"stance_window_s", 0.0}, {"phase_locked_frames", -1},
            {"cold_start_fraction", 1.5}}) {

@@ -96,6 +96,13 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       })
       .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
       .written_if([](const O& o) { return o.toe_terms; })
+      .field("toe_term_weight", &O::toe_term_weight, "training: each toe's weight in the heel terms (a heel's is 1)",
+             in_range(0.0, 1.0))
+      .written_if([](const O& o) { return o.toe_term_weight != 1.0; })
+      .rule([](const O& o) -> std::string {
+        if (o.toe_term_weight <= 0) return "toe_term_weight must be above 0";
+        return o.toe_term_weight != 1.0 && !o.toe_terms ? "toe_term_weight needs toe_terms" : "";
+      })
       .field("toe_slide_weight", &O::toe_slide_weight,
              "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
       .written_if([](const O& o) { return o.toe_slide_weight > 0; })
@@ -311,7 +318,8 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
   if (options.heel_terms_on())
-    planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction, options.toe_terms);
+    planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction, options.toe_terms,
+                                    options.toe_term_weight);
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));

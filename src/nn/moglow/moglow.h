@@ -123,6 +123,10 @@ struct MoGlowOptions {
   // Training only: the heel terms above (planted, speed error, lingering, stance) also read the
   // toes (each ankle's first child joint), so a toe that slides while its heel stands costs too.
   bool toe_terms = false;
+  // Training only, with toe_terms: each toe's weight in those terms' means against a heel's 1.
+  // At 1 the drawn feet planted harder than real ones (walks' v_tol95 half the takes', the runs'
+  // contacts half as long again; session 33).
+  double toe_term_weight = 1.0;
   // Training only, positions form, with foot_contact_rollout > 0: weight of the toe-slide term on
   // every draw (PlantedHeelTerm::mean_excess_toe_slide: a toe within 1 cm of its floor moving faster
   // than 0.1 m/s counts the excess, as the independent check counts foot skating; each row costs
