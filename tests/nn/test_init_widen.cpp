@@ -94,3 +94,59 @@ TEST(InitWiden, NarrowerRecurrentLayersAreLeftAsInitialised) {
   EXPECT_TRUE(report.grown.empty());
   fs::remove(path);
 }
+
+namespace {
+
+// A two-layer GRU (3 gates) and a linear readout: the families with GRUs (mojo, dfn, hvrnn) widen
+// through the same code as the LSTMs above, and this checks the 3-gate layout alone.
+class GruReadout : public TrainableModel {
+ public:
+  explicit GruReadout(int hidden)
+      : TrainableModel("GruReadout"),
+        hidden_(hidden),
+        gru_(register_module("gru", torch::nn::GRU(torch::nn::GRUOptions(kInputs, hidden).num_layers(2)
+                                                        .batch_first(true)))),
+        out_(register_module("out", torch::nn::Linear(hidden, 2))) {}
+  std::string family() const override { return "test-gru"; }
+  nlohmann::json config() const override { return {{"hidden", hidden_}}; }
+  torch::Tensor forward(const torch::Tensor& x) { return out_(std::get<0>(gru_(x))); }  // [B, T, 2]
+  LossTerms loss(const Batch& batch) override {
+    LossTerms terms;
+    terms.terms["loss"] = forward(batch.control).pow(2).mean();
+    return terms;
+  }
+  static constexpr int kInputs = 3;
+
+ private:
+  int hidden_;
+  torch::nn::GRU gru_;
+  torch::nn::Linear out_;
+};
+
+}  // namespace
+
+// Hidden 5 -> 9 in both GRU layers: the same readout to float precision; per gate the stored rows
+// sit first in their block, the stored units read no new unit, and the new units are not dead.
+TEST(InitWiden, WiderGruLayersStartAsTheStoredModel) {
+  torch::manual_seed(7);
+  GruReadout narrow(5);
+  perturb(narrow);
+  const fs::path path = fs::temp_directory_path() / ("mosyn_widen_gru_" + std::to_string(::getpid()) + ".pt");
+  save_checkpoint(path.string(), narrow, nullptr, CheckpointState{});
+  GruReadout wide(9);
+  const InitReport report = init_from_checkpoint(path.string(), wide, torch::kCPU);
+  EXPECT_TRUE(report.missing.empty());
+  EXPECT_EQ(report.grown.size(), 4u * 2 + 1);  // 4 tensors of each GRU layer, the readout's weight
+  const auto x = torch::randn({2, 6, GruReadout::kInputs});
+  torch::NoGradGuard no_grad;
+  EXPECT_TRUE(torch::allclose(wide.forward(x), narrow.forward(x), 1e-5, 1e-6));
+  auto params = wide.named_parameters();
+  auto stored = narrow.named_parameters();
+  const auto hh = params["gru.weight_hh_l1"], hh_stored = stored["gru.weight_hh_l1"];
+  for (int g = 0; g < 3; ++g) {
+    EXPECT_TRUE(torch::equal(hh.narrow(0, g * 9, 5).narrow(1, 0, 5), hh_stored.narrow(0, g * 5, 5)));
+    EXPECT_EQ(hh.narrow(0, g * 9, 5).narrow(1, 5, 4).abs().max().item<float>(), 0.0f);
+    EXPECT_GT(hh.narrow(0, g * 9 + 5, 4).abs().max().item<float>(), 0.0f);
+  }
+  fs::remove(path);
+}
