@@ -108,6 +108,26 @@ torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t w
   return mean_over(torch::relu(above), planted, whole, joint_weight_);
 }
 
+torch::Tensor PlantedHeelTerm::mean_excess_slow_share(const HeelSpeeds& s, int64_t window,
+                                                      const torch::Tensor& valid) const {
+  if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
+  const int64_t n = s.made_mps.size(1);
+  if (n < window) return torch::zeros({}, s.made_mps.options());
+  const auto runs = [&](const torch::Tensor& x) { return x.expand_as(s.made_mps).unfold(1, window, 1); };
+  const auto threshold = planted_threshold(s);
+  const auto planted = std::get<0>(runs((s.real_mps < threshold).to(s.made_mps.dtype())).max(-1));
+  torch::Tensor excess = torch::zeros_like(planted);  // [B, n - window + 1, K]
+  for (double level : kSlowLevels) {
+    const auto bar = threshold * level;
+    const auto made_slow = torch::sigmoid((bar - s.made_mps) / (bar * kSlowSoftness));
+    const auto real_slow = (s.real_mps < bar).to(s.made_mps.dtype());
+    excess = excess + torch::relu(runs(made_slow).mean(-1) - runs(real_slow).mean(-1));
+  }
+  torch::Tensor whole;
+  if (valid.defined()) whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
+  return mean_over(excess, planted, whole, joint_weight_);
+}
+
 torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                                    const torch::Tensor& valid) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");

@@ -93,6 +93,20 @@ class PlantedHeelTerm {
   torch::Tensor mean_missed_stance(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {},
                                    bool relative_to_data = false) const;
 
+  // The phase-free lingering term, the stance term's counterpart: over the same runs (each heel,
+  // `window` consecutive steps in which the real heel plants at least once), the share of the run's
+  // steps in which the made heel is slower than a level, minus the real heel's share, where
+  // positive; summed over the levels kSlowLevels x the planted threshold (0.15, 0.3, 0.6 m/s: a
+  // walk's plant, a run's plant at 20 fps) and averaged over the runs (a fraction per level). A
+  // share is soft for the made heel (a sigmoid of (level - speed) over kSlowSoftness x level), hard
+  // for the real one. Why (session 34): a term that charges only each run's slowest step is met as
+  // well by a long stance as by a short one, and the drawn feet planted a third longer than the
+  // takes'. speeds and valid as mean_missed_stance. A scalar, differentiable in made; 0 when no
+  // run counts. Throws mosyn::Error when window < 1.
+  static constexpr double kSlowLevels[] = {1.0, 2.0, 4.0};
+  static constexpr double kSlowSoftness = 0.2;
+  torch::Tensor mean_excess_slow_share(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {}) const;
+
   // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
   // positions form, which is relative to the root's floor point and heading) over the frames of
   // made, real [B, n, D] (standardised; frame i of one is frame i of the other); valid (optional

@@ -239,6 +239,54 @@ TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
               (0.85 + 0.05 + 0.5 + 0.6 + 0.7 + 0.8) / 6, 1e-12);
 }
 
+// The slow-share term against a brute-force loop: over runs of 3 steps in which the real heel
+// plants, per level L of 0.15 / 0.3 / 0.6 m/s, max(0, the made heel's soft share of steps slower
+// than L (sigmoid((L - v) / 0.2 L)) minus the real heel's hard share), summed over levels, averaged
+// over counted runs. Heel 0 stands for three steps where the data's plants for one (charged), heel
+// 1 creeps at 0.2 m/s where the data's stands (its share is below the data's: free).
+TEST(PlantedHeelTerm, SlowShareChargesAHeelSlowLongerThanTheData) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const PlantedHeelTerm term(ctx, "test");
+  const auto opts = torch::dtype(torch::kFloat64);
+  const std::vector<std::vector<double>> made_v = {{0.0, 0.0, 0.0, 1.0, 1.0, 1.0}, {0.2, 0.2, 0.2, 0.2, 0.2, 0.2}};
+  const std::vector<std::vector<double>> real_v = {{1.0, 0.05, 1.0, 1.0, 1.0, 1.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+  const auto as_tensor = [&](const std::vector<std::vector<double>>& v) {
+    std::vector<double> flat;
+    for (const auto& heel : v) flat.insert(flat.end(), heel.begin(), heel.end());
+    return torch::tensor(flat, opts).reshape({1, 2, 6}).transpose(1, 2).contiguous();  // [1, 6, 2]
+  };
+  auto made = as_tensor(made_v).requires_grad_(true);
+  const PlantedHeelTerm::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const int window = 3;
+  double sum = 0;
+  int counted = 0;
+  for (int k = 0; k < 2; ++k)
+    for (int r = 0; r + window <= 6; ++r) {
+      bool plants = false;
+      for (int t = r; t < r + window; ++t) plants = plants || real_v[k][t] < 0.15;
+      if (!plants) continue;
+      ++counted;
+      for (double level : {0.15, 0.3, 0.6}) {
+        double made_share = 0, real_share = 0;
+        for (int t = r; t < r + window; ++t) {
+          made_share += 1.0 / (1.0 + std::exp(-(level - made_v[k][t]) / (0.2 * level))) / window;
+          real_share += (real_v[k][t] < level ? 1.0 : 0.0) / window;
+        }
+        sum += std::max(0.0, made_share - real_share);
+      }
+    }
+  ASSERT_EQ(counted, 2 + 4);
+  const auto share = term.mean_excess_slow_share(speeds, window);
+  EXPECT_NEAR(share.item<double>(), sum / counted, 1e-12);
+  EXPECT_GT(share.item<double>(), 0.4);  // heel 0: three slow steps of three where the data has one
+  share.backward();
+  EXPECT_LT(made.grad()[0][0][0].item<double>(), 0.0);  // the cure is a faster heel
+  for (int t = 0; t < 6; ++t) EXPECT_EQ(made.grad()[0][t][1].item<double>(), 0.0);  // heel 1 is free
+  EXPECT_NEAR(term.mean_excess_slow_share(speeds, 7).item<double>(), 0.0, 1e-12);
+  EXPECT_THROW(term.mean_excess_slow_share(speeds, 0), Error);
+}
+
 // with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that
 // slides where the data's stands costs as a heel does, averaged over four joints instead of two.
 TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {

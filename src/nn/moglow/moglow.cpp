@@ -79,7 +79,10 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       .written_if([](const O& o) { return o.stance_weight > 0; })
       .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
              at_least(0.05))
-      .written_if([](const O& o) { return o.stance_weight > 0; })
+      .written_if([](const O& o) { return o.stance_weight > 0 || o.slow_share_weight > 0; })
+      .field("slow_share_weight", &O::slow_share_weight,
+             "training: weight of the slow-share term on the stance term's runs (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.slow_share_weight > 0; })
       .field("stance_relative", &O::stance_relative,
              "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
       .written_if([](const O& o) { return o.stance_relative; })
@@ -506,12 +509,14 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
   if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);
   if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(first, first_valid);
-  if (options_.stance_weight > 0) {
+  if (options_.stance_weight > 0 || options_.slow_share_weight > 0) {
     const PlantedHeelTerm::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
                                           sequence(speeds.planted_below_mps, n)};
     const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
-    out.missed_stance_mps =
-        planted_heels_.mean_missed_stance(all, window, drawn_valid, options_.stance_relative);
+    if (options_.stance_weight > 0)
+      out.missed_stance_mps = planted_heels_.mean_missed_stance(all, window, drawn_valid, options_.stance_relative);
+    if (options_.slow_share_weight > 0)
+      out.excess_slow_share = planted_heels_.mean_excess_slow_share(all, window, drawn_valid);
   }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
@@ -588,6 +593,10 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     if (heels.toe_slide_mps.defined()) {
       added = added + options_.toe_slide_weight * heels.toe_slide_mps;
       out.terms["toe_slide_mps"] = heels.toe_slide_mps.detach();
+    }
+    if (heels.excess_slow_share.defined()) {
+      added = added + options_.slow_share_weight * heels.excess_slow_share;
+      out.terms["excess_slow_share"] = heels.excess_slow_share.detach();
     }
     if (heels.pelvis_offset_m.defined()) {
       added = added + options_.pelvis_follow_weight * heels.pelvis_offset_m;

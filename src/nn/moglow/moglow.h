@@ -110,6 +110,13 @@ struct MoGlowOptions {
   // backward at 0.1-0.15 m/s, under the threshold, and the toes with them slid past the independent
   // check's 0.1 m/s, where real planted heels stop (0.06-0.07 m/s at the slowest).
   bool stance_relative = false;
+  // Training only, positions form: weight of the slow-share term on the stance term's runs
+  // (PlantedHeelTerm::mean_excess_slow_share: how much more of each 1-s run a drawn heel spends
+  // slower than 0.15 / 0.3 / 0.6 m/s than the data's heel does, a fraction per level). The stance
+  // term reads each run's slowest step only, which a long stance meets as well as a short one
+  // (session 34: with stance_relative the drawn walks planted a third longer than the takes). 0 =
+  // off. Logged as excess_slow_share.
+  double slow_share_weight = 0.0;
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
   int phase_locked_frames = 0;
@@ -138,7 +145,7 @@ struct MoGlowOptions {
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
-           stance_weight > 0 || toe_slide_weight > 0;
+           stance_weight > 0 || slow_share_weight > 0 || toe_slide_weight > 0;
   }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
@@ -330,7 +337,8 @@ class MoGlowImpl : public MotionModel {
   // all frames).
   struct HeelTerms {
     // all but planted_mps: undefined when their weight is 0
-    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps;
+    torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps,
+        excess_slow_share;
   };
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
