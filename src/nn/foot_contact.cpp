@@ -80,6 +80,23 @@ torch::Tensor planted_threshold(const PlantedHeelTerm::HeelSpeeds& s) {
                                        : torch::full({}, PlantedHeelTerm::kPlantedMps, s.made_mps.options());
 }
 
+// The runs of `window` consecutive steps the stance terms read, for speeds s [B, n, K] (n >= window):
+// runs(x) unfolds x (broadcast to s's shape) to [B, n - window + 1, K, window]; planted [B, m, K] is
+// 1 where the real heel plants in the run; whole [B, m] 1 where no step of it is padded (undefined
+// without valid).
+struct StanceRuns {
+  int64_t window;
+  torch::Tensor like, planted, whole;
+  torch::Tensor runs(const torch::Tensor& x) const { return x.expand_as(like).unfold(1, window, 1); }
+};
+
+StanceRuns stance_runs(const PlantedHeelTerm::HeelSpeeds& s, int64_t window, const torch::Tensor& valid) {
+  StanceRuns r{window, s.made_mps, {}, {}};
+  r.planted = std::get<0>(r.runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
+  if (valid.defined()) r.whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
+  return r;
+}
+
 }  // namespace
 
 torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
@@ -95,37 +112,28 @@ torch::Tensor PlantedHeelTerm::mean_lingering_speed(const HeelSpeeds& s, const t
 torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t window, const torch::Tensor& valid,
                                                  bool relative_to_data) const {
   if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
-  const int64_t n = s.made_mps.size(1);
-  if (n < window) return torch::zeros({}, s.made_mps.options());
-  // [B, n, 2] -> [B, n - window + 1, 2, window]: every run of `window` steps.
-  const auto runs = [&](const torch::Tensor& x) { return x.expand_as(s.made_mps).unfold(1, window, 1); };
+  if (s.made_mps.size(1) < window) return torch::zeros({}, s.made_mps.options());
+  const StanceRuns r = stance_runs(s, window, valid);
   const auto above = relative_to_data
-                         ? std::get<0>(runs(s.made_mps).min(-1)) - std::get<0>(runs(s.real_mps).min(-1))
-                         : std::get<0>(runs(s.made_mps - planted_threshold(s)).min(-1));
-  const auto planted = std::get<0>(runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
-  torch::Tensor whole;  // [B, n - window + 1]: 1 where no step of the run is padded
-  if (valid.defined()) whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
-  return mean_over(torch::relu(above), planted, whole, joint_weight_);
+                         ? std::get<0>(r.runs(s.made_mps).min(-1)) - std::get<0>(r.runs(s.real_mps).min(-1))
+                         : std::get<0>(r.runs(s.made_mps - planted_threshold(s)).min(-1));
+  return mean_over(torch::relu(above), r.planted, r.whole, joint_weight_);
 }
 
 torch::Tensor PlantedHeelTerm::mean_excess_slow_share(const HeelSpeeds& s, int64_t window,
                                                       const torch::Tensor& valid) const {
   if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
-  const int64_t n = s.made_mps.size(1);
-  if (n < window) return torch::zeros({}, s.made_mps.options());
-  const auto runs = [&](const torch::Tensor& x) { return x.expand_as(s.made_mps).unfold(1, window, 1); };
+  if (s.made_mps.size(1) < window) return torch::zeros({}, s.made_mps.options());
+  const StanceRuns r = stance_runs(s, window, valid);
   const auto threshold = planted_threshold(s);
-  const auto planted = std::get<0>(runs((s.real_mps < threshold).to(s.made_mps.dtype())).max(-1));
-  torch::Tensor excess = torch::zeros_like(planted);  // [B, n - window + 1, K]
+  torch::Tensor excess = torch::zeros_like(r.planted);  // [B, n - window + 1, K]
   for (double level : kSlowLevels) {
     const auto bar = threshold * level;
     const auto made_slow = torch::sigmoid((bar - s.made_mps) / (bar * kSlowSoftness));
     const auto real_slow = (s.real_mps < bar).to(s.made_mps.dtype());
-    excess = excess + torch::relu(runs(made_slow).mean(-1) - runs(real_slow).mean(-1));
+    excess = excess + torch::relu(r.runs(made_slow).mean(-1) - r.runs(real_slow).mean(-1));
   }
-  torch::Tensor whole;
-  if (valid.defined()) whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
-  return mean_over(excess, planted, whole, joint_weight_);
+  return mean_over(excess, r.planted, r.whole, joint_weight_);
 }
 
 torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
