@@ -100,8 +100,8 @@ class PlantedHeelTerm {
   // walk's plant, a run's plant at 20 fps) and averaged over the runs (a fraction per level). A
   // share is soft for the made heel (a sigmoid of (level - speed) over kSlowSoftness x level), hard
   // for the real one. Why (session 34): a term that charges only each run's slowest step is met as
-  // well by a long stance as by a short one, and the drawn feet planted a third longer than the
-  // takes'. speeds and valid as mean_missed_stance. A scalar, differentiable in made; 0 when no
+  // well by a long stance as by a short one, and MoGlow's drawn walks held each contact a third
+  // longer than the takes. speeds and valid as mean_missed_stance. A scalar, differentiable in made; 0 when no
   // run counts. Throws mosyn::Error when window < 1.
   static constexpr double kSlowLevels[] = {1.0, 2.0, 4.0};
   static constexpr double kSlowSoftness = 0.2;

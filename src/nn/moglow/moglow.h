@@ -114,8 +114,9 @@ struct MoGlowOptions {
   // (PlantedHeelTerm::mean_excess_slow_share: how much more of each 1-s run a drawn heel spends
   // slower than 0.15 / 0.3 / 0.6 m/s than the data's heel does, a fraction per level). The stance
   // term reads each run's slowest step only, which a long stance meets as well as a short one
-  // (session 34: with stance_relative the drawn walks planted a third longer than the takes). 0 =
-  // off. Logged as excess_slow_share.
+  // (run 30 of models/moglow-lookahead holds each walking contact a third longer than the takes).
+  // 0 = off. Logged as excess_slow_share. Measured (session 34, weight 1): the heels left the slow
+  // band by sliding, not lifting (skating past the bars within 300 steps); kept for further work.
   double slow_share_weight = 0.0;
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
@@ -140,7 +141,8 @@ struct MoGlowOptions {
   // what its draws slide more than the data's frames of the same window). Continued training
   // moved the slide from the heels to the toes, which the heel terms do not see (session 30).
   // 0 = off. Logged as toe_slide_mps. Measured: at weights 1-10 over 40 draws it broke the gait
-  // within a few hundred steps (src/nn/moglow/README.md, session 31); kept for further work.
+  // within a few hundred steps (src/nn/moglow/README.md, session 31), and at 0.2 (session 34);
+  // kept for further work.
   double toe_slide_weight = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
