@@ -733,6 +733,11 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   EXPECT_TRUE(create_model("moglow", cfg, ctx)->config().at("toe_terms").get<bool>());
   cfg["toe_term_weight"] = 0.3;  // read, kept (its effect: WithToesReadsEachAnklesChild)
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("toe_term_weight").get<double>(), 0.3);
+  for (const double bad : {0.0, 1.5}) {  // a weight in (0, 1]
+    nlohmann::json wrong = cfg;
+    wrong["toe_term_weight"] = bad;
+    EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << bad;
+  }
   cfg.erase("toe_terms");  // a toe weight without the toes is an error
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
   cfg.erase("toe_term_weight");

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "core/error.h"
 #include "nn/config_json.h"
@@ -48,7 +49,7 @@ std::string lookahead_problem(const MoGlowOptions& o) {
 OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
   using O = MoGlowOptions;
   return std::move(fields)
-          .field("foot_contact_weight", &O::foot_contact_weight,
+      .field("foot_contact_weight", &O::foot_contact_weight,
              "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
       .written_if([](const O& o) { return o.foot_contact_weight > 0; })
       .field("foot_contact_rollout", &O::foot_contact_rollout,
@@ -100,10 +101,12 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
       .written_if([](const O& o) { return o.toe_terms; })
       .field("toe_term_weight", &O::toe_term_weight, "training: each toe's weight in the heel terms (a heel's is 1)",
-             in_range(0.0, 1.0))
+             FieldCheck<double>{[](const std::string& key, const double& v) {
+                                  return v > 0 && v <= 1 ? std::string() : key + " must be in (0, 1]";
+                                },
+                                ""})
       .written_if([](const O& o) { return o.toe_term_weight != 1.0; })
       .rule([](const O& o) -> std::string {
-        if (o.toe_term_weight <= 0) return "toe_term_weight must be above 0";
         return o.toe_term_weight != 1.0 && !o.toe_terms ? "toe_term_weight needs toe_terms" : "";
       })
       .field("toe_slide_weight", &O::toe_slide_weight,
@@ -578,29 +581,18 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     const auto seen = offset.defined() ? batch.pose + offset : batch.pose;
     const HeelTerms heels = heel_terms(batch, seen, e, valid);
     auto added = options_.foot_contact_weight * heels.planted_mps;
-    if (heels.speed_error_mps.defined()) {
-      added = added + options_.heel_speed_weight * heels.speed_error_mps;
-      out.terms["heel_speed_error_mps"] = heels.speed_error_mps.detach();
-    }
-    if (heels.lingering_mps.defined()) {
-      added = added + options_.lift_off_weight * heels.lingering_mps;
-      out.terms["lingering_heel_mps"] = heels.lingering_mps.detach();
-    }
-    if (heels.missed_stance_mps.defined()) {
-      added = added + options_.stance_weight * heels.missed_stance_mps;
-      out.terms["missed_stance_mps"] = heels.missed_stance_mps.detach();
-    }
-    if (heels.toe_slide_mps.defined()) {
-      added = added + options_.toe_slide_weight * heels.toe_slide_mps;
-      out.terms["toe_slide_mps"] = heels.toe_slide_mps.detach();
-    }
-    if (heels.excess_slow_share.defined()) {
-      added = added + options_.slow_share_weight * heels.excess_slow_share;
-      out.terms["excess_slow_share"] = heels.excess_slow_share.detach();
-    }
-    if (heels.pelvis_offset_m.defined()) {
-      added = added + options_.pelvis_follow_weight * heels.pelvis_offset_m;
-      out.terms["pelvis_offset_m"] = heels.pelvis_offset_m.detach();
+    // Each optional term (undefined when its weight is 0): weighted into the loss, logged by name.
+    const std::tuple<const torch::Tensor&, double, const char*> optional_terms[] = {
+        {heels.speed_error_mps, options_.heel_speed_weight, "heel_speed_error_mps"},
+        {heels.lingering_mps, options_.lift_off_weight, "lingering_heel_mps"},
+        {heels.missed_stance_mps, options_.stance_weight, "missed_stance_mps"},
+        {heels.toe_slide_mps, options_.toe_slide_weight, "toe_slide_mps"},
+        {heels.excess_slow_share, options_.slow_share_weight, "excess_slow_share"},
+        {heels.pelvis_offset_m, options_.pelvis_follow_weight, "pelvis_offset_m"}};
+    for (const auto& [term, weight, name] : optional_terms) {
+      if (!term.defined()) continue;
+      added = added + weight * term;
+      out.terms[name] = term.detach();
     }
     if (is_training()) out.terms["loss"] = out.terms["loss"] + added;
     out.terms["planted_heel_mps"] = heels.planted_mps.detach();
