@@ -15,7 +15,10 @@ With the default 2 samples a take (28 motions for the 14 held-out walks) the ste
 by about 0.15 from one --seed to the next on the same weights (recurrent VAE run 20: 0.98, 0.72,
 0.71); to choose between models use --n 6 and several seeds (models/rvae-locomotion/README.md).
 
-Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure.
+Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure. A second table
+splits the check's toe-slide rule by the pelvis' ground speed (1-s mean): where a model's feet slide
+more than the takes' (session 35: the drawn paths' excess lay in their starts, stops and stands,
+speeds the held-out takes never reach).
 """
 import argparse, json, os, re, struct, subprocess, sys
 
@@ -50,6 +53,51 @@ def val_clips(dataset, contents):
         if flags == 0 and name in contents:
             out.append((i, source, name))
     return info, out
+
+
+# Pelvis ground-speed bands (m/s, 1-s mean) of the speed split: standing, starting / stopping, slow,
+# walking, fast.
+SPEED_BANDS_MPS = (0.0, 0.2, 0.6, 1.0, 1.5, float("inf"))
+
+
+def slides_by_speed(files):
+    """Per SPEED_BANDS_MPS band: [frame steps sliding, frame steps] by the check's toe rule (a toe
+    within 1 cm of its own 5th-percentile height moving faster than 0.1 m/s), each step t-1 -> t
+    binned by the pelvis' ground speed averaged over the second around it."""
+    sys.path.insert(0, os.path.dirname(CHECK))
+    import numpy as np
+    import natural_motion as nm
+    counts = [[0, 0] for _ in SPEED_BANDS_MPS[:-1]]
+    for f in files:
+        pos, names, fps = nm.positions_m(f, 0.01)
+        if pos.shape[0] < 2:
+            continue
+        low = [n.lower() for n in names]
+        pelvis = low.index("hips") if "hips" in low else 0
+        step_mps = np.linalg.norm(np.diff(pos[:, pelvis, :][:, [0, 2]], axis=0), axis=-1) * fps
+        k = max(1, int(round(fps)))
+        # The mean over the frames that exist (no zero padding: a take cut mid-stride reads as walking).
+        pelvis_mps = np.convolve(step_mps, np.ones(k), mode="same") / np.convolve(np.ones_like(step_mps), np.ones(k), mode="same")
+        toes = pos[:, nm.foot_indices(names), :]
+        floor = np.percentile(toes[:, :, 1], 5, axis=0)
+        near = (toes[:-1, :, 1] - floor) < 0.01
+        toe_mps = np.linalg.norm(toes[1:, :, :][:, :, [0, 2]] - toes[:-1, :, :][:, :, [0, 2]], axis=-1) * fps
+        sliding = (near & (toe_mps > 0.10)).any(axis=1)
+        band = np.digitize(pelvis_mps, SPEED_BANDS_MPS[1:-1])
+        for b in range(len(counts)):
+            counts[b][0] += int(sliding[band == b].sum())
+            counts[b][1] += int((band == b).sum())
+    return counts
+
+
+def print_speed_split(rows):
+    """rows: (name, slides_by_speed counts). A Markdown table: share sliding (frame steps) per band."""
+    heads = [f"{lo:g}-{hi:g}" if hi != float("inf") else f"{lo:g}+" for lo, hi in zip(SPEED_BANDS_MPS, SPEED_BANDS_MPS[1:])]
+    print("\n| toe frames sliding, by pelvis speed (m/s, 1-s mean) | " + " | ".join(heads) + " |")
+    print("|---|" + "---|" * len(heads))
+    for name, counts in rows:
+        cells = [f"{s / n:.2f} ({n})" if n else "-" for s, n in counts]
+        print(f"| {name} | " + " | ".join(cells) + " |")
 
 
 def run(cmd):
@@ -117,6 +165,11 @@ def main():
         print(f"| {k} | " + " | ".join(cells) + " |")
     r = results["validation controls"]
     print(f"| real clips | {r['v_tol95']['real']:.3g} | {r['skating']['real']:.3g} | {r['step_s']['real']:.3g} |")
+    split = [("real clips", slides_by_speed(real)), ("validation controls", slides_by_speed(gen)),
+             ("all synthetic paths", slides_by_speed(all_paths))]
+    print_speed_split(split)
+    results["toe slides by pelvis speed"] = {name: dict(bands_mps=list(SPEED_BANDS_MPS[:-1]), sliding=[c[0] for c in counts],
+                                                        steps=[c[1] for c in counts]) for name, counts in split}
     if a.json:
         json.dump(dict(run=a.run, dataset=a.dataset, clips=[c[1] for c in clips], n=a.n, paths=PATHS,
                        foot_lock=a.foot_lock, style=a.style, results=results), open(a.json, "w"), indent=1)
