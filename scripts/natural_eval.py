@@ -66,7 +66,8 @@ def slides_by_speed(files):
     """Per SPEED_BANDS_MPS band: [frame steps sliding, frame steps] by the check's toe rule (a toe
     within 1 cm of its own 5th-percentile height moving faster than 0.1 m/s), each step t-1 -> t
     binned by the pelvis' ground speed averaged over the second around it."""
-    sys.path.insert(0, os.path.dirname(CHECK))
+    if os.path.dirname(CHECK) not in sys.path:
+        sys.path.insert(0, os.path.dirname(CHECK))
     import numpy as np
     import natural_motion as nm
     counts = [[0, 0] for _ in SPEED_BANDS_MPS[:-1]]
@@ -76,14 +77,14 @@ def slides_by_speed(files):
             continue
         low = [n.lower() for n in names]
         pelvis = low.index("hips") if "hips" in low else 0
-        step_mps = np.linalg.norm(np.diff(pos[:, pelvis, :][:, [0, 2]], axis=0), axis=-1) * fps
+        step_mps = np.linalg.norm(np.diff(pos[:, pelvis, [0, 2]], axis=0), axis=-1) * fps
         k = max(1, int(round(fps)))
         # The mean over the frames that exist (no zero padding: a take cut mid-stride reads as walking).
         pelvis_mps = np.convolve(step_mps, np.ones(k), mode="same") / np.convolve(np.ones_like(step_mps), np.ones(k), mode="same")
         toes = pos[:, nm.foot_indices(names), :]
         floor = np.percentile(toes[:, :, 1], 5, axis=0)
         near = (toes[:-1, :, 1] - floor) < 0.01
-        toe_mps = np.linalg.norm(toes[1:, :, :][:, :, [0, 2]] - toes[:-1, :, :][:, :, [0, 2]], axis=-1) * fps
+        toe_mps = np.linalg.norm(np.diff(toes[:, :, [0, 2]], axis=0), axis=-1) * fps
         sliding = (near & (toe_mps > 0.10)).any(axis=1)
         band = np.digitize(pelvis_mps, SPEED_BANDS_MPS[1:-1])
         for b in range(len(counts)):
@@ -170,11 +171,12 @@ def main():
     split = [("real clips", slides_by_speed(real)), ("validation controls", slides_by_speed(gen)),
              ("all synthetic paths", slides_by_speed(all_paths))]
     print_speed_split(split)
-    results["toe slides by pelvis speed"] = {name: dict(bands_mps=list(SPEED_BANDS_MPS[:-1]), sliding=[c[0] for c in counts],
-                                                        steps=[c[1] for c in counts]) for name, counts in split}
     if a.json:
+        slides = {name: dict(bands_mps=list(SPEED_BANDS_MPS[:-1]), sliding=[c[0] for c in counts], steps=[c[1] for c in counts])
+                  for name, counts in split}
         json.dump(dict(run=a.run, dataset=a.dataset, clips=[c[1] for c in clips], n=a.n, paths=PATHS,
-                       foot_lock=a.foot_lock, style=a.style, results=results), open(a.json, "w"), indent=1)
+                       foot_lock=a.foot_lock, style=a.style, results=results, toe_slides_by_pelvis_speed=slides),
+                  open(a.json, "w"), indent=1)
 
 
 def takes_labels(run_dir):
