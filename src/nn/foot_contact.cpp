@@ -6,11 +6,11 @@
 
 namespace mosyn::nn {
 
-PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction,
-                                 bool with_toes, double toe_weight)
-    : fps_(context.fps), planted_speed_fraction_(planted_speed_fraction) {
-  if (!(planted_speed_fraction >= 0)) throw Error(family + ": planted_speed_fraction must not be negative");
-  if (!(toe_weight > 0 && toe_weight <= 1)) throw Error(family + ": toe_term_weight must be in (0, 1]");
+PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string& family, const PlantedHeelOptions& options)
+    : fps_(context.fps), planted_mps_(options.planted_mps), planted_speed_fraction_(options.planted_speed_fraction) {
+  if (!(options.planted_mps > 0 && options.planted_mps <= 1)) throw Error(family + ": planted_mps must be in (0, 1]");
+  if (!(options.planted_speed_fraction >= 0)) throw Error(family + ": planted_speed_fraction must not be negative");
+  if (!(options.toe_weight > 0 && options.toe_weight <= 1)) throw Error(family + ": toe_term_weight must be in (0, 1]");
   const Skeleton& skeleton = context.skeleton;
   const std::string who = family + ": a heel or pelvis term (foot_contact_weight, heel_speed_weight, lift_off_weight, pelvis_follow_weight) needs ";
   if (context.pose_form != data::PoseForm::kPositions || skeleton.num_joints() * 3 != context.pose_dim)
@@ -27,10 +27,11 @@ PlantedHeelTerm::PlantedHeelTerm(const ModelContext& context, const std::string&
     if (!children.empty()) toes_.push_back(children.front());
   }
   if (toes_.size() != 2) toes_.clear();
-  if (with_toes) {
+  if (options.with_toes) {
     if (toes_.empty()) throw Error(family + ": toe_terms needs a joint below each ankle (the toes)");
     heels_.insert(heels_.end(), toes_.begin(), toes_.end());
-    if (toe_weight != 1.0) joint_weight_ = torch::tensor({1.0, 1.0, toe_weight, toe_weight});
+    if (options.toe_weight != 1.0)
+      joint_weight_ = torch::tensor({1.0, 1.0, options.toe_weight, options.toe_weight});
   }
   pose_mean_ = torch::tensor(st.pose_mean);
   pose_std_ = torch::tensor(st.pose_std);
@@ -52,12 +53,13 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
   const auto ctrl = raw_control(control, made.options());
   HeelSpeeds out{joint_ground_speed_mps(positions_m(made), ctrl, heels_, fps_),
-                 joint_ground_speed_mps(positions_m(real.to(made.options())), ctrl, heels_, fps_), {}};
+                 joint_ground_speed_mps(positions_m(real.to(made.options())), ctrl, heels_, fps_),
+                 torch::full({}, planted_mps_, made.options())};
   if (planted_speed_fraction_ > 0) {
     // The control of frame t is the root's step into it (sideways, forward in metres; turn).
     const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);
     const auto root_mps = step.norm(2, -1, /*keepdim=*/true) * fps_;
-    out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(kPlantedMps).detach();
+    out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(planted_mps_).detach();
   }
   return out;
 }
@@ -74,7 +76,8 @@ torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const
   return (value * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
-// The planted threshold of each step (m/s): the speed-scaled one [B, T-1, 1], else kPlantedMps.
+// The planted threshold of each step (m/s): HeelSpeeds::planted_below_mps, or kPlantedMps for speeds
+// assembled by hand without it.
 torch::Tensor planted_threshold(const PlantedHeelTerm::HeelSpeeds& s) {
   return s.planted_below_mps.defined() ? s.planted_below_mps
                                        : torch::full({}, PlantedHeelTerm::kPlantedMps, s.made_mps.options());

@@ -15,30 +15,43 @@
 
 namespace mosyn::nn {
 
+// What the heel terms read and when a data heel counts as planted.
+struct PlantedHeelOptions {
+  // A data heel slower than this (m/s) is planted (walks: a few cm/s; a swinging foot, metres per
+  // second). Real heels roll at 0.1-0.15 m/s at the ends of a stance, so at 0.15 the terms hold a
+  // drawn heel still over those frames too (session 36: MoGlow's drawn contacts outlast the takes').
+  double planted_mps = 0.15;
+  // With f > 0 a data heel is planted below max(planted_mps, f x the root's ground speed into the
+  // frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s for more than one frame
+  // (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never), so at the fixed threshold
+  // the runs barely reach the terms.
+  double planted_speed_fraction = 0.0;
+  // The terms also read each ankle's first child joint (the toes) beside the heels, [.., 4] instead
+  // of [.., 2] below: the independent check's skating reads the toes, which slide while a heel
+  // stands (session 30).
+  bool with_toes = false;
+  // Each toe's weight against a heel (1) in the terms' means: with the toes at full weight the
+  // drawn feet planted harder than real ones (session 33).
+  double toe_weight = 1.0;
+};
+
 class PlantedHeelTerm {
  public:
-  // A data heel slower than this is planted (walks: a few cm/s; a swinging foot, metres per second).
+  // The default PlantedHeelOptions::planted_mps.
   static constexpr double kPlantedMps = 0.15;
 
   PlantedHeelTerm() = default;
   // From a positions-form context with the dataset's skeleton and statistics (a model built by
   // mosyn train or load_run): the two ankles of core find_legs. family names the caller in errors.
-  // With planted_speed_fraction f > 0 a data heel is planted below max(kPlantedMps, f x the root's
-  // ground speed into the frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s
-  // for more than one frame (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never),
-  // so at the fixed threshold the runs barely reach the terms. With with_toes the terms read each
-  // ankle's first child joint (the toes) beside the heels, [.., 4] instead of [.., 2] below: the
-  // independent check's skating reads the toes, which slide while a heel stands (session 30).
-  // toe_weight weighs each toe against a heel (1) in the terms' means: with the toes at full
-  // weight the drawn feet planted harder than real ones (session 33). Throws mosyn::Error when the
-  // context cannot give the heels (or toes), f is negative or toe_weight is not in (0, 1].
-  PlantedHeelTerm(const ModelContext& context, const std::string& family, double planted_speed_fraction = 0.0,
-                  bool with_toes = false, double toe_weight = 1.0);
+  // Throws mosyn::Error when the context cannot give the heels (or toes), planted_mps is not in
+  // (0, 1], planted_speed_fraction is negative or toe_weight is not in (0, 1].
+  PlantedHeelTerm(const ModelContext& context, const std::string& family, const PlantedHeelOptions& options = {});
 
   // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
   // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
   // frame t is the root's step into it). Computed once, they serve every term below.
-  // planted_below_mps [B, T-1, 1]: the planted threshold of each step (undefined: kPlantedMps).
+  // planted_below_mps: the planted threshold of each step (m/s), [B, T-1, 1] with
+  // planted_speed_fraction, else a scalar tensor.
   struct HeelSpeeds {
     torch::Tensor made_mps, real_mps, planted_below_mps;
   };
@@ -69,7 +82,7 @@ class PlantedHeelTerm {
   }
 
   // Mean of max(0, threshold - made heel speed) over the (heel, step) pairs where the real heel
-  // has lifted (moves at the planted threshold, kPlantedMps or the speed-scaled one, or faster):
+  // has lifted (moves at the planted threshold, planted_mps or the speed-scaled one, or faster):
   // how far below that threshold a made heel lingers where the data's has left the ground (valid
   // as above). The complement of mean_planted_speed: together they charge a contact that starts
   // late or ends late on either side, and nothing in the swing. A scalar, differentiable in made; 0 when nothing has lifted.
@@ -149,6 +162,7 @@ class PlantedHeelTerm {
   std::vector<int> heels_;
   std::vector<int> toes_;
   double fps_ = 30.0;
+  double planted_mps_ = kPlantedMps;
   double planted_speed_fraction_ = 0.0;
   torch::Tensor joint_weight_;  // [K] of the joints read (1 a heel, toe_weight a toe); undefined: all 1
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]

@@ -179,13 +179,15 @@ TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const Batch still = nn::testing::standing_batch(s, ctx, 12);
-  const PlantedHeelTerm fixed(ctx, "test"), scaled(ctx, "test", 0.1);
+  PlantedHeelOptions scaled_options;
+  scaled_options.planted_speed_fraction = 0.1;
+  const PlantedHeelTerm fixed(ctx, "test"), scaled(ctx, "test", scaled_options);
   const Batch running = heels_behind_a_moving_root(still, s, 0.1, 0.1 - 0.2 / 30);  // heels at 0.2 m/s
   const auto speeds = scaled.speeds(running.pose, running.pose, running.control);
   ASSERT_TRUE(speeds.planted_below_mps.defined());
   EXPECT_NEAR(speeds.planted_below_mps.min().item<double>(), 0.3, 1e-5);
   EXPECT_NEAR(speeds.real_mps.mean().item<double>(), 0.2, 1e-4);
-  EXPECT_FALSE(fixed.speeds(running.pose, running.pose, running.control).planted_below_mps.defined());
+  EXPECT_EQ(fixed.speeds(running.pose, running.pose, running.control).planted_below_mps.dim(), 0);
   EXPECT_NEAR(scaled.mean_planted_speed(running.pose, running.pose, running.control).item<double>(), 0.2, 1e-4);
   EXPECT_NEAR(fixed.mean_planted_speed(running.pose, running.pose, running.control).item<double>(), 0.0, 1e-6);
   // Behind a walking root the threshold is the fixed one: the same 0.2-m/s heel is not planted.
@@ -197,7 +199,47 @@ TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
   const Batch planted = heels_behind_a_moving_root(still, s, 0.1, 0.1);
   EXPECT_NEAR(scaled.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.3, 1e-4);
   EXPECT_NEAR(fixed.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.15, 1e-4);
-  EXPECT_THROW(PlantedHeelTerm(ctx, "test", -0.1), Error);
+  PlantedHeelOptions negative;
+  negative.planted_speed_fraction = -0.1;
+  EXPECT_THROW(PlantedHeelTerm(ctx, "test", negative), Error);
+}
+
+// planted_mps by hand: behind a root at 1.2 m/s a data heel rolling at 0.1 m/s is planted under the
+// default 0.15 m/s and lifted under 0.08, so a made heel sliding at 0.3 m/s there costs the planted
+// term 0.3 or nothing, and a made heel standing still costs the lingering term nothing or 0.08.
+// The speed-scaled threshold floors at planted_mps.
+TEST(PlantedHeelTerm, PlantedThresholdIsAnOption) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const Batch still = nn::testing::standing_batch(s, ctx, 12);
+  PlantedHeelOptions low;
+  low.planted_mps = 0.08;
+  const PlantedHeelTerm fixed(ctx, "test"), lowered(ctx, "test", low);
+  const Batch rolling = heels_behind_a_moving_root(still, s, 0.04, 0.04 - 0.1 / 30);
+  const Batch sliding = heels_behind_a_moving_root(still, s, 0.04, 0.04 - 0.3 / 30);
+  const Batch standing = heels_behind_a_moving_root(still, s, 0.04, 0.04);
+  const auto& control = rolling.control;
+  EXPECT_NEAR(lowered.speeds(sliding.pose, rolling.pose, control).planted_below_mps.item<double>(), 0.08, 1e-6);  // float32
+  EXPECT_NEAR(fixed.mean_planted_speed(sliding.pose, rolling.pose, control).item<double>(), 0.3, 1e-4);
+  EXPECT_NEAR(lowered.mean_planted_speed(sliding.pose, rolling.pose, control).item<double>(), 0.0, 1e-6);
+  EXPECT_NEAR(fixed.mean_lingering_speed(standing.pose, rolling.pose, control).item<double>(), 0.0, 1e-6);
+  EXPECT_NEAR(lowered.mean_lingering_speed(standing.pose, rolling.pose, control).item<double>(), 0.08, 1e-4);
+  // The stance term: a made heel whose slowest step is 0.1 m/s misses the lowered bar by 0.02 where
+  // the data's heel stands, and meets the default one.
+  const auto stance = [&](const PlantedHeelTerm& term) {
+    return term.mean_missed_stance(term.speeds(rolling.pose, standing.pose, control), 5).item<double>();
+  };
+  EXPECT_NEAR(stance(fixed), 0.0, 1e-6);
+  EXPECT_NEAR(stance(lowered), 0.02, 1e-4);
+  PlantedHeelOptions scaled = low;
+  scaled.planted_speed_fraction = 0.01;  // 0.012 m/s at 1.2 m/s: under the floor
+  const PlantedHeelTerm floored(ctx, "test", scaled);
+  EXPECT_NEAR(floored.speeds(sliding.pose, rolling.pose, control).planted_below_mps.max().item<double>(), 0.08, 1e-6);
+  for (double bad : {0.0, -0.1, 1.5, std::nan("")}) {
+    PlantedHeelOptions o;
+    o.planted_mps = bad;
+    EXPECT_THROW(PlantedHeelTerm(ctx, "test", o), Error);
+  }
 }
 
 // The phase-free stance term by hand over runs of 3 steps (four runs in six steps). Heel 0's data
@@ -294,7 +336,9 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch real = nn::testing::standing_batch(s, ctx, frames);
-  const PlantedHeelTerm heels(ctx, "test"), both(ctx, "test", 0.0, true);
+  PlantedHeelOptions toes;
+  toes.with_toes = true;
+  const PlantedHeelTerm heels(ctx, "test"), both(ctx, "test", toes);
   ASSERT_EQ(both.heels().size(), 4u);
   for (int k = 0; k < 2; ++k) {
     EXPECT_EQ(both.heels()[k], heels.heels()[k]);
@@ -310,12 +354,17 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
   EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 2 * 10 * 0.3 / (19 * 4), 1e-4);
   EXPECT_NEAR(heels.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 2), 1e-4);
   // The toes at weight 0.25: a weighted mean, each toe's steps counting a quarter of a heel's.
-  const PlantedHeelTerm light(ctx, "test", 0.0, true, 0.25);
+  PlantedHeelOptions light_toes = toes;
+  light_toes.toe_weight = 0.25;
+  const PlantedHeelTerm light(ctx, "test", light_toes);
   const double weighted = (10 * 0.3 + 0.25 * 10 * 0.3) / (19 * 2 + 0.25 * 19 * 2);
   EXPECT_NEAR(light.mean_planted_speed(made, real.pose, real.control).item<double>(), weighted, 1e-4);
   EXPECT_NEAR(light.mean_speed_error(made, real.pose, real.control).item<double>(), weighted, 1e-4);
-  EXPECT_THROW(PlantedHeelTerm(ctx, "test", 0.0, true, 0.0), Error);
-  EXPECT_THROW(PlantedHeelTerm(ctx, "test", 0.0, true, 1.5), Error);
+  for (double bad : {0.0, 1.5}) {
+    PlantedHeelOptions o = toes;
+    o.toe_weight = bad;
+    EXPECT_THROW(PlantedHeelTerm(ctx, "test", o), Error);
+  }
 }
 
 // The toe-slide term by hand (the independent check's skating as a cost): on the floor (its lowest

@@ -71,8 +71,14 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
              "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
              at_least(0.0))
       .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
+      .field("planted_mps", &O::planted_mps, "training: heel terms' planted threshold (m/s)",
+             FieldCheck<double>{[](const std::string& key, const double& v) {
+                                  return v > 0 && v <= 1 ? std::string() : key + " must be in (0, 1] m/s";
+                                },
+                                ""})
+      .written_if([](const O& o) { return o.planted_mps != PlantedHeelTerm::kPlantedMps; })
       .field("planted_speed_fraction", &O::planted_speed_fraction,
-             "training: heel terms' planted threshold max(0.15 m/s, this x root speed); 0 = 0.15 m/s", at_least(0.0))
+             "training: heel terms' planted threshold max(planted_mps, this x root speed); 0 = planted_mps", at_least(0.0))
       .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
       .field("stance_weight", &O::stance_weight,
              "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
@@ -323,9 +329,14 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.heel_terms_on())
-    planted_heels_ = PlantedHeelTerm(context, "moglow", options.planted_speed_fraction, options.toe_terms,
-                                    options.toe_term_weight);
+  if (options.heel_terms_on()) {
+    PlantedHeelOptions heel_options;
+    heel_options.planted_mps = options.planted_mps;
+    heel_options.planted_speed_fraction = options.planted_speed_fraction;
+    heel_options.with_toes = options.toe_terms;
+    heel_options.toe_weight = options.toe_term_weight;
+    planted_heels_ = PlantedHeelTerm(context, "moglow", heel_options);
+  }
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -500,8 +511,9 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
   const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
   // [B n, 1, .] pairs -> [B, n, .] sequences; the phase-locked terms read the first `locked` steps.
+  // A scalar (the fixed planted threshold) stays as it is.
   const auto sequence = [&](const torch::Tensor& x, int64_t k) {
-    return x.defined() ? x.reshape({b, n, -1}).narrow(1, 0, k) : x;
+    return x.defined() && x.dim() > 0 ? x.reshape({b, n, -1}).narrow(1, 0, k) : x;
   };
   const int64_t locked = options_.phase_locked_frames > 0 ? std::min<int64_t>(n, options_.phase_locked_frames) : n;
   const PlantedHeelTerm::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),

@@ -91,8 +91,12 @@ struct MoGlowOptions {
   // does (held-out runs at 3.3 m/s: the body made 1.7 m/s). Useful with foot_contact_rollout > 0.
   // 0 = off. Logged as pelvis_offset_m.
   double pelvis_follow_weight = 0.0;
+  // Training only: the heel terms call a data heel planted below this speed (m/s; PlantedHeelOptions).
+  // Real heels roll at 0.1-0.15 m/s at the ends of a stance; at 0.15 the terms hold a drawn heel
+  // still there too, and the drawn contacts outlast the takes' (session 36).
+  double planted_mps = 0.15;
   // Training only: the heel terms' planted threshold rises with the root's ground speed, to
-  // max(0.15 m/s, fraction x root speed) (PlantedHeelTerm): at 20 fps a running heel seldom
+  // max(planted_mps, fraction x root speed) (PlantedHeelTerm): at 20 fps a running heel seldom
   // stays under 0.15 m/s for more than a frame, so at the fixed threshold the runs barely reach
   // the terms and their footsteps stay soft. 0 = the fixed 0.15 m/s (runs before session 29).
   double planted_speed_fraction = 0.0;
