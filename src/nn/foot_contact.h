@@ -15,12 +15,16 @@
 
 namespace mosyn::nn {
 
+// The heel terms' default planted threshold (m/s): walks' planted heels move a few cm/s, swinging
+// feet metres per second.
+constexpr double kDefaultPlantedMps = 0.15;
+
 // What the heel terms read and when a data heel counts as planted.
 struct PlantedHeelOptions {
   // A data heel slower than this (m/s) is planted (walks: a few cm/s; a swinging foot, metres per
   // second). Real heels roll at 0.1-0.15 m/s at the ends of a stance, so at 0.15 the terms hold a
   // drawn heel still over those frames too (session 36: MoGlow's drawn contacts outlast the takes').
-  double planted_mps = 0.15;
+  double planted_mps = kDefaultPlantedMps;
   // With f > 0 a data heel is planted below max(planted_mps, f x the root's ground speed into the
   // frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s for more than one frame
   // (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never), so at the fixed threshold
@@ -37,8 +41,8 @@ struct PlantedHeelOptions {
 
 class PlantedHeelTerm {
  public:
-  // The default PlantedHeelOptions::planted_mps.
-  static constexpr double kPlantedMps = 0.15;
+  // The threshold of HeelSpeeds assembled by hand without planted_below_mps.
+  static constexpr double kPlantedMps = kDefaultPlantedMps;
 
   PlantedHeelTerm() = default;
   // From a positions-form context with the dataset's skeleton and statistics (a model built by

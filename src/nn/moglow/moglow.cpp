@@ -76,7 +76,7 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
                                   return v > 0 && v <= 1 ? std::string() : key + " must be in (0, 1] m/s";
                                 },
                                 ""})
-      .written_if([](const O& o) { return o.planted_mps != PlantedHeelTerm::kPlantedMps; })
+      .written_if([](const O& o) { return o.planted_mps != kDefaultPlantedMps; })
       .field("planted_speed_fraction", &O::planted_speed_fraction,
              "training: heel terms' planted threshold max(planted_mps, this x root speed); 0 = planted_mps", at_least(0.0))
       .written_if([](const O& o) { return o.planted_speed_fraction > 0; })

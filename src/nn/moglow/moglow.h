@@ -94,11 +94,11 @@ struct MoGlowOptions {
   // Training only: the heel terms call a data heel planted below this speed (m/s; PlantedHeelOptions).
   // Real heels roll at 0.1-0.15 m/s at the ends of a stance; at 0.15 the terms hold a drawn heel
   // still there too, and the drawn contacts outlast the takes' (session 36).
-  double planted_mps = 0.15;
+  double planted_mps = kDefaultPlantedMps;
   // Training only: the heel terms' planted threshold rises with the root's ground speed, to
   // max(planted_mps, fraction x root speed) (PlantedHeelTerm): at 20 fps a running heel seldom
   // stays under 0.15 m/s for more than a frame, so at the fixed threshold the runs barely reach
-  // the terms and their footsteps stay soft. 0 = the fixed 0.15 m/s (runs before session 29).
+  // the terms and their footsteps stay soft. 0 = the fixed planted_mps (runs before session 29).
   double planted_speed_fraction = 0.0;
   // Training only, positions form: weight of the phase-free stance term on the same draws
   // (PlantedHeelTerm::mean_missed_stance over runs of stride_window_s): each drawn heel must stop
