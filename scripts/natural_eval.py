@@ -20,7 +20,7 @@ splits the check's toe-slide rule by the pelvis' ground speed (1-s mean): where 
 more than the takes' (session 35: the drawn paths' excess lay in their starts, stops and stands,
 speeds the held-out takes never reach).
 """
-import argparse, json, os, re, struct, subprocess, sys
+import argparse, inspect, json, os, re, struct, subprocess, sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHECK = os.path.normpath(os.path.join(HERE, "..", "..", "shared", "checks", "natural_motion.py"))
@@ -64,12 +64,15 @@ CHECK_SCALE = 0.01
 
 def slides_by_speed(files):
     """Per SPEED_BANDS_MPS band: [frame steps sliding, frame steps] by the check's toe rule (a toe
-    within 1 cm of its own 5th-percentile height moving faster than 0.1 m/s), each step t-1 -> t
-    binned by the pelvis' ground speed averaged over the second around it."""
+    within h_thr of its own 5th-percentile height moving faster than v_thr: its foot_skating_ratio,
+    which returns only the clip mean, so the rule is restated here with the check's own thresholds),
+    each step t-1 -> t binned by the pelvis' ground speed averaged over the second around it."""
     if os.path.dirname(CHECK) not in sys.path:
         sys.path.insert(0, os.path.dirname(CHECK))
     import numpy as np
     import natural_motion as nm
+    rule = inspect.signature(nm.foot_skating_ratio).parameters
+    h_thr, v_thr = rule["h_thr"].default, rule["v_thr"].default
     counts = [[0, 0] for _ in SPEED_BANDS_MPS[:-1]]
     for f in files:
         pos, names, fps = nm.positions_m(f, CHECK_SCALE)
@@ -83,9 +86,9 @@ def slides_by_speed(files):
         pelvis_mps = np.convolve(step_mps, np.ones(k), mode="same") / np.convolve(np.ones_like(step_mps), np.ones(k), mode="same")
         toes = pos[:, nm.foot_indices(names), :]
         floor = np.percentile(toes[:, :, 1], 5, axis=0)
-        near = (toes[:-1, :, 1] - floor) < 0.01
+        near = (toes[:-1, :, 1] - floor) < h_thr
         toe_mps = np.linalg.norm(np.diff(toes[:, :, [0, 2]], axis=0), axis=-1) * fps
-        sliding = (near & (toe_mps > 0.10)).any(axis=1)
+        sliding = (near & (toe_mps > v_thr)).any(axis=1)
         band = np.digitize(pelvis_mps, SPEED_BANDS_MPS[1:-1])
         for b in range(len(counts)):
             counts[b][0] += int(sliding[band == b].sum())

@@ -76,14 +76,9 @@ torch::Tensor mean_over(const torch::Tensor& value, torch::Tensor counted, const
   return (value * counted).sum() / counted.sum().clamp_min(1.0);
 }
 
-// The planted threshold of each step (m/s): HeelSpeeds::planted_below_mps, or kPlantedMps for speeds
-// assembled by hand without it.
-torch::Tensor planted_threshold(const PlantedHeelTerm::HeelSpeeds& s) {
-  return s.planted_below_mps.defined() ? s.planted_below_mps
-                                       : torch::full({}, PlantedHeelTerm::kPlantedMps, s.made_mps.options());
-}
 
-// The runs of `window` consecutive steps the stance terms read, for speeds s [B, n, K] (n >= window):
+// The runs of `window` consecutive steps the stance terms read, for speeds s [B, n, K] (n >= window)
+// and the planted threshold (PlantedHeelTerm::planted_threshold):
 // runs(x) unfolds x (broadcast to s's shape) to [B, n - window + 1, K, window]; planted [B, m, K] is
 // 1 where the real heel plants in the run; whole [B, m] 1 where no step of it is padded (undefined
 // without valid).
@@ -93,14 +88,19 @@ struct StanceRuns {
   torch::Tensor runs(const torch::Tensor& x) const { return x.expand_as(like).unfold(1, window, 1); }
 };
 
-StanceRuns stance_runs(const PlantedHeelTerm::HeelSpeeds& s, int64_t window, const torch::Tensor& valid) {
+StanceRuns stance_runs(const PlantedHeelTerm::HeelSpeeds& s, const torch::Tensor& threshold, int64_t window,
+                       const torch::Tensor& valid) {
   StanceRuns r{window, s.made_mps, {}, {}};
-  r.planted = std::get<0>(r.runs((s.real_mps < planted_threshold(s)).to(s.made_mps.dtype())).max(-1));
+  r.planted = std::get<0>(r.runs((s.real_mps < threshold).to(s.made_mps.dtype())).max(-1));
   if (valid.defined()) r.whole = std::get<0>(valid.to(s.made_mps.options()).unfold(1, window, 1).min(-1));
   return r;
 }
 
 }  // namespace
+
+torch::Tensor PlantedHeelTerm::planted_threshold(const HeelSpeeds& s) const {
+  return s.planted_below_mps.defined() ? s.planted_below_mps : torch::full({}, planted_mps_, s.made_mps.options());
+}
 
 torch::Tensor PlantedHeelTerm::mean_planted_speed(const HeelSpeeds& s, const torch::Tensor& valid) const {
   return mean_over(s.made_mps, (s.real_mps < planted_threshold(s)).to(s.made_mps.dtype()), valid, joint_weight_);
@@ -116,10 +116,11 @@ torch::Tensor PlantedHeelTerm::mean_missed_stance(const HeelSpeeds& s, int64_t w
                                                  bool relative_to_data) const {
   if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
   if (s.made_mps.size(1) < window) return torch::zeros({}, s.made_mps.options());
-  const StanceRuns r = stance_runs(s, window, valid);
+  const auto threshold = planted_threshold(s);
+  const StanceRuns r = stance_runs(s, threshold, window, valid);
   const auto above = relative_to_data
                          ? std::get<0>(r.runs(s.made_mps).min(-1)) - std::get<0>(r.runs(s.real_mps).min(-1))
-                         : std::get<0>(r.runs(s.made_mps - planted_threshold(s)).min(-1));
+                         : std::get<0>(r.runs(s.made_mps - threshold).min(-1));
   return mean_over(torch::relu(above), r.planted, r.whole, joint_weight_);
 }
 
@@ -127,8 +128,8 @@ torch::Tensor PlantedHeelTerm::mean_excess_slow_share(const HeelSpeeds& s, int64
                                                       const torch::Tensor& valid) const {
   if (window < 1) throw Error("PlantedHeelTerm: the stance window must be at least one step");
   if (s.made_mps.size(1) < window) return torch::zeros({}, s.made_mps.options());
-  const StanceRuns r = stance_runs(s, window, valid);
   const auto threshold = planted_threshold(s);
+  const StanceRuns r = stance_runs(s, threshold, window, valid);
   torch::Tensor excess = torch::zeros_like(r.planted);  // [B, n - window + 1, K]
   for (double level : kSlowLevels) {
     const auto bar = threshold * level;

@@ -41,9 +41,6 @@ struct PlantedHeelOptions {
 
 class PlantedHeelTerm {
  public:
-  // The threshold of HeelSpeeds assembled by hand without planted_below_mps.
-  static constexpr double kPlantedMps = kDefaultPlantedMps;
-
   PlantedHeelTerm() = default;
   // From a positions-form context with the dataset's skeleton and statistics (a model built by
   // mosyn train or load_run): the two ankles of core find_legs. family names the caller in errors.
@@ -55,7 +52,8 @@ class PlantedHeelTerm {
   // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
   // frame t is the root's step into it). Computed once, they serve every term below.
   // planted_below_mps: the planted threshold of each step (m/s), [B, T-1, 1] with
-  // planted_speed_fraction, else a scalar tensor.
+  // planted_speed_fraction, else a scalar tensor; speeds assembled by hand may leave it undefined
+  // (the term's planted_mps).
   struct HeelSpeeds {
     torch::Tensor made_mps, real_mps, planted_below_mps;
   };
@@ -162,11 +160,13 @@ class PlantedHeelTerm {
   // Standardised pose [.., D] -> joint positions in metres; standardised control [.., C] -> raw, in opts.
   torch::Tensor positions_m(const torch::Tensor& pose) const;
   torch::Tensor raw_control(const torch::Tensor& control, const torch::TensorOptions& opts) const;
+  // speeds.planted_below_mps, or planted_mps_ as a scalar where it is undefined.
+  torch::Tensor planted_threshold(const HeelSpeeds& speeds) const;
 
   std::vector<int> heels_;
   std::vector<int> toes_;
   double fps_ = 30.0;
-  double planted_mps_ = kPlantedMps;
+  double planted_mps_ = kDefaultPlantedMps;
   double planted_speed_fraction_ = 0.0;
   torch::Tensor joint_weight_;  // [K] of the joints read (1 a heel, toe_weight a toe); undefined: all 1
   torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]

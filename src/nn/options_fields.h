@@ -104,16 +104,28 @@ FieldCheck<T> at_least(T lo) {
           ""};
 }
 
-// lo <= value <= hi (or < hi when !hi_closed): "<key> must be in [lo, hi]" / "[lo, hi)".
-inline FieldCheck<double> in_range(double lo, double hi, bool hi_closed = true) {
+namespace options_detail {
+
+// A value in the interval from lo to hi, each end closed or open: "<key> must be in [lo, hi)" etc.
+inline FieldCheck<double> interval(double lo, bool lo_closed, double hi, bool hi_closed) {
   return {[=](const std::string& key, const double& v) {
-            const bool ok = v >= lo && (hi_closed ? v <= hi : v < hi);
+            const bool ok = (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
             return ok ? std::string()
-                      : key + " must be in [" + options_detail::number_text(lo) + ", " +
-                            options_detail::number_text(hi) + (hi_closed ? "]" : ")");
+                      : key + " must be in " + (lo_closed ? "[" : "(") + number_text(lo) + ", " + number_text(hi) +
+                            (hi_closed ? "]" : ")");
           },
           ""};
 }
+
+}  // namespace options_detail
+
+// lo <= value <= hi (or < hi when !hi_closed): "<key> must be in [lo, hi]" / "[lo, hi)".
+inline FieldCheck<double> in_range(double lo, double hi, bool hi_closed = true) {
+  return options_detail::interval(lo, true, hi, hi_closed);
+}
+
+// lo < value <= hi: "<key> must be in (lo, hi]" (a weight or a threshold that must not be lo).
+inline FieldCheck<double> above_up_to(double lo, double hi) { return options_detail::interval(lo, false, hi, true); }
 
 // An odd integer >= lo (kernel widths with 'same' padding): "<key> must be odd and >= lo".
 inline FieldCheck<int> odd_at_least(int lo) {

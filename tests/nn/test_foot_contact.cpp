@@ -97,7 +97,7 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   const PlantedHeelTerm term(ctx, "test");
   const int64_t left_x = 3 * s.find("Foot_L");
   const auto lifted = left_heel_moving(still, s, 0.01);  // 0.3 m/s at 30 fps
-  const double threshold = PlantedHeelTerm::kPlantedMps;
+  const double threshold = kDefaultPlantedMps;
   EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control).item<double>(), threshold, 1e-4);
   EXPECT_NEAR(term.mean_lingering_speed(left_heel_moving(still, s, 0.002), lifted, still.control).item<double>(), threshold - 0.06, 1e-4);
   EXPECT_NEAR(term.mean_lingering_speed(left_heel_moving(still, s, 0.005), lifted, still.control).item<double>(), 0.0, 1e-4);

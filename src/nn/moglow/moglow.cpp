@@ -71,11 +71,7 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
              "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
              at_least(0.0))
       .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
-      .field("planted_mps", &O::planted_mps, "training: heel terms' planted threshold (m/s)",
-             FieldCheck<double>{[](const std::string& key, const double& v) {
-                                  return v > 0 && v <= 1 ? std::string() : key + " must be in (0, 1] m/s";
-                                },
-                                ""})
+      .field("planted_mps", &O::planted_mps, "training: heel terms' planted threshold (m/s)", above_up_to(0.0, 1.0))
       .written_if([](const O& o) { return o.planted_mps != kDefaultPlantedMps; })
       .field("planted_speed_fraction", &O::planted_speed_fraction,
              "training: heel terms' planted threshold max(planted_mps, this x root speed); 0 = planted_mps", at_least(0.0))
@@ -107,10 +103,7 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
       .written_if([](const O& o) { return o.toe_terms; })
       .field("toe_term_weight", &O::toe_term_weight, "training: each toe's weight in the heel terms (a heel's is 1)",
-             FieldCheck<double>{[](const std::string& key, const double& v) {
-                                  return v > 0 && v <= 1 ? std::string() : key + " must be in (0, 1]";
-                                },
-                                ""})
+             above_up_to(0.0, 1.0))
       .written_if([](const O& o) { return o.toe_term_weight != 1.0; })
       .rule([](const O& o) -> std::string {
         return o.toe_term_weight != 1.0 && !o.toe_terms ? "toe_term_weight needs toe_terms" : "";
