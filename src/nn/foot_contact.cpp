@@ -140,6 +140,23 @@ torch::Tensor PlantedHeelTerm::mean_excess_slow_share(const HeelSpeeds& s, int64
   return mean_over(excess, r.planted, r.whole, joint_weight_);
 }
 
+torch::Tensor PlantedHeelTerm::mean_sorted_speed_error(const HeelSpeeds& s, const torch::Tensor& valid,
+                                                      double cap_mps) const {
+  if (!(cap_mps > 0)) throw Error("PlantedHeelTerm: the speed-distribution cap must be positive");
+  const auto opts = s.made_mps.options();
+  auto made = s.made_mps.clamp_max(cap_mps), real = s.real_mps.to(opts).clamp_max(cap_mps);
+  auto counted = torch::ones_like(made);
+  if (valid.defined()) {
+    // Left-out steps become -1 in both: sorted, they come first in equal numbers and cancel.
+    const auto keep = valid.to(opts).unsqueeze(-1).expand_as(made);
+    made = torch::where(keep > 0, made, torch::full_like(made, -1.0));
+    real = torch::where(keep > 0, real, torch::full_like(real, -1.0));
+    counted = std::get<0>(keep.sort(1));
+  }
+  const auto error = (std::get<0>(made.sort(1)) - std::get<0>(real.sort(1))).abs();
+  return mean_over(error, counted, {}, joint_weight_);
+}
+
 torch::Tensor PlantedHeelTerm::mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                                    const torch::Tensor& valid) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");

@@ -122,6 +122,21 @@ class PlantedHeelTerm {
   static constexpr double kSlowSoftness = 0.2;
   torch::Tensor mean_excess_slow_share(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {}) const;
 
+  // The phase-free speed-distribution term: per row and joint, the made and the real heel's speeds
+  // over the row's valid steps, each clamped at cap_mps and sorted, compared pair by pair: the mean
+  // absolute difference (m/s; the 1-D Wasserstein distance between the two distributions of
+  // speeds below the cap), averaged over rows and joints (toes at toe_weight). It asks the made
+  // heel to be as slow as the data's for as many steps, wherever in the run they fall: a heel that
+  // glides where the data's stands pays, and so does one that stays slow for longer than the
+  // data's; the swing (above the cap) costs nothing. Why (session 37): the phase-locked planted
+  // term, met under an uncertain phase by holding the heel down over a wider span, made MoGlow's
+  // drawn contacts last a fifth to a quarter longer than the takes'. speeds [B, n, K] as from
+  // speeds() (steps of one sequence along dim 1); valid (optional [B, n], 0/1) leaves steps out.
+  // A scalar, differentiable in made; 0 when no step is valid. Throws mosyn::Error when cap_mps <= 0.
+  static constexpr double kSpeedDistributionCapMps = 0.6;
+  torch::Tensor mean_sorted_speed_error(const HeelSpeeds& speeds, const torch::Tensor& valid = {},
+                                        double cap_mps = kSpeedDistributionCapMps) const;
+
   // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
   // positions form, which is relative to the root's floor point and heading) over the frames of
   // made, real [B, n, D] (standardised; frame i of one is frame i of the other); valid (optional

@@ -329,6 +329,42 @@ TEST(PlantedHeelTerm, SlowShareChargesAHeelSlowLongerThanTheData) {
   EXPECT_THROW(term.mean_excess_slow_share(speeds, 0), Error);
 }
 
+// The speed-distribution term by hand: each heel's steps clamped at the cap and sorted, the made
+// and the real compared pair by pair. A made heel slow for the data's number of steps at another
+// phase costs nothing; one slow for longer costs the difference; left-out steps drop out of both.
+TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const PlantedHeelTerm term(ctx, "test");
+  const auto opts = torch::dtype(torch::kFloat64);
+  const auto as_tensor = [&](const std::vector<std::vector<double>>& v) {  // heels x steps -> [1, 6, 2]
+    std::vector<double> flat;
+    for (const auto& heel : v) flat.insert(flat.end(), heel.begin(), heel.end());
+    return torch::tensor(flat, opts).reshape({1, 2, 6}).transpose(1, 2).contiguous();
+  };
+  const std::vector<std::vector<double>> real_v = {{2.0, 0.05, 0.05, 2.0, 2.0, 2.0}, {0.3, 0.1, 2.0, 2.0, 2.0, 0.4}};
+  // Heel 0: the data's two slow steps two steps later (no cost); heel 1: slow for four steps.
+  const std::vector<std::vector<double>> made_v = {{1.5, 3.0, 2.0, 0.05, 0.05, 0.9}, {0.0, 0.1, 0.2, 0.2, 2.0, 2.0}};
+  auto made = as_tensor(made_v).requires_grad_(true);
+  const PlantedHeelTerm::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const double cap = 0.6;
+  // By hand, heel 1 sorted and clamped: made 0, 0.1, 0.2, 0.2, 0.6, 0.6; real 0.1, 0.3, 0.4, 0.6, 0.6, 0.6.
+  const double heel1 = (0.1 + 0.2 + 0.2 + 0.4 + 0 + 0) / 6;
+  const auto error = term.mean_sorted_speed_error(speeds, {}, cap);
+  EXPECT_NEAR(error.item<double>(), (0.0 + heel1) / 2, 1e-12);
+  error.backward();
+  for (int t = 0; t < 6; ++t) EXPECT_EQ(made.grad()[0][t][0].item<double>(), 0.0);  // heel 0 is free
+  for (int t = 0; t < 4; ++t) EXPECT_LT(made.grad()[0][t][1].item<double>(), 0.0);  // heel 1's slow steps: faster
+  EXPECT_EQ(made.grad()[0][4][1].item<double>(), 0.0);     // above the cap: the swing is free
+  // Leaving out steps 4-5 compares the first four of each heel: heel 0 made 1.5, 3, 2, 0.05 -> 0.05,
+  // 0.6, 0.6, 0.6 against 0.05, 0.05, 0.6, 0.6; heel 1 made 0, 0.1, 0.2, 0.2 against 0.1, 0.3, 0.6, 0.6.
+  const auto valid = torch::tensor({1.0, 1.0, 1.0, 1.0, 0.0, 0.0}, opts).unsqueeze(0);
+  const double heel0_valid = 0.55 / 4, heel1_valid = (0.1 + 0.2 + 0.4 + 0.4) / 4;
+  EXPECT_NEAR(term.mean_sorted_speed_error(speeds, valid, cap).item<double>(), (heel0_valid + heel1_valid) / 2, 1e-12);
+  EXPECT_NEAR(term.mean_sorted_speed_error(speeds, torch::zeros_like(valid), cap).item<double>(), 0.0, 1e-12);
+  EXPECT_THROW(term.mean_sorted_speed_error(speeds, {}, 0.0), Error);
+}
+
 // with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that
 // slides where the data's stands costs as a heel does, averaged over four joints instead of two.
 TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {

@@ -86,6 +86,13 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       .field("slow_share_weight", &O::slow_share_weight,
              "training: weight of the slow-share term on the stance term's runs (positions form)", at_least(0.0))
       .written_if([](const O& o) { return o.slow_share_weight > 0; })
+      .field("speed_distribution_weight", &O::speed_distribution_weight,
+             "training: weight of the phase-free speed-distribution term on the free-running draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.speed_distribution_weight > 0; })
+      .field("speed_distribution_cap_mps", &O::speed_distribution_cap_mps,
+             "training: the speed-distribution term's cap (m/s): faster steps count as this", above_up_to(0.0, 10.0))
+      .written_if([](const O& o) { return o.speed_distribution_cap_mps != PlantedHeelTerm::kSpeedDistributionCapMps; })
       .field("stance_relative", &O::stance_relative,
              "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
       .written_if([](const O& o) { return o.stance_relative; })
@@ -526,6 +533,13 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
     if (options_.slow_share_weight > 0)
       out.excess_slow_share = planted_heels_.mean_excess_slow_share(all, window, drawn_valid);
   }
+  if (options_.speed_distribution_weight > 0 && n > 1) {
+    // Every draw but the first: a cold start's first step leaves the mean pose, no frame of the motion.
+    auto later = torch::ones({b, n}, seen.options()).index_put_({torch::indexing::Slice(), 0}, 0.0);
+    if (drawn_valid.defined()) later = later * drawn_valid;
+    out.speed_distribution_mps = planted_heels_.mean_sorted_speed_error(
+        {sequence(speeds.made_mps, n), sequence(speeds.real_mps, n), {}}, later, options_.speed_distribution_cap_mps);
+  }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
     // mean pose is no frame of the motion.
@@ -593,6 +607,7 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
         {heels.missed_stance_mps, options_.stance_weight, "missed_stance_mps"},
         {heels.toe_slide_mps, options_.toe_slide_weight, "toe_slide_mps"},
         {heels.excess_slow_share, options_.slow_share_weight, "excess_slow_share"},
+        {heels.speed_distribution_mps, options_.speed_distribution_weight, "speed_distribution_mps"},
         {heels.pelvis_offset_m, options_.pelvis_follow_weight, "pelvis_offset_m"}};
     for (const auto& [term, weight, name] : optional_terms) {
       if (!term.defined()) continue;

@@ -122,6 +122,13 @@ struct MoGlowOptions {
   // 0 = off. Logged as excess_slow_share. Measured (session 34, weight 1): the heels left the slow
   // band by sliding, not lifting (skating past the bars within 300 steps); kept for further work.
   double slow_share_weight = 0.0;
+  // Training only, positions form: weight of the speed-distribution term on every draw but the
+  // first (PlantedHeelTerm::mean_sorted_speed_error: the drawn and the data heels' speeds over the
+  // draws, clamped at speed_distribution_cap_mps and sorted, compared pair by pair). Phase-free,
+  // it charges a gliding stance and a stance held longer than the data's alike (session 37). With
+  // toe_terms it reads the toes too. 0 = off. Logged as speed_distribution_mps.
+  double speed_distribution_weight = 0.0;
+  double speed_distribution_cap_mps = PlantedHeelTerm::kSpeedDistributionCapMps;
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
   int phase_locked_frames = 0;
@@ -151,7 +158,7 @@ struct MoGlowOptions {
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
-           stance_weight > 0 || slow_share_weight > 0 || toe_slide_weight > 0;
+           stance_weight > 0 || slow_share_weight > 0 || toe_slide_weight > 0 || speed_distribution_weight > 0;
   }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
@@ -344,7 +351,7 @@ class MoGlowImpl : public MotionModel {
   struct HeelTerms {
     // all but planted_mps: undefined when their weight is 0
     torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps,
-        excess_slow_share;
+        excess_slow_share, speed_distribution_mps;
   };
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
