@@ -52,15 +52,13 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
                                                    const torch::Tensor& control) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
   const auto ctrl = raw_control(control, made.options());
+  // The control of frame t is the root's step into it (sideways, forward in metres; turn).
+  const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);
+  const auto root_mps = (step.norm(2, -1, /*keepdim=*/true) * fps_).detach();
   HeelSpeeds out{joint_ground_speed_mps(positions_m(made), ctrl, heels_, fps_),
                  joint_ground_speed_mps(positions_m(real.to(made.options())), ctrl, heels_, fps_),
-                 torch::full({}, planted_mps_, made.options())};
-  if (planted_speed_fraction_ > 0) {
-    // The control of frame t is the root's step into it (sideways, forward in metres; turn).
-    const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);
-    const auto root_mps = step.norm(2, -1, /*keepdim=*/true) * fps_;
-    out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(planted_mps_).detach();
-  }
+                 torch::full({}, planted_mps_, made.options()), root_mps};
+  if (planted_speed_fraction_ > 0) out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(planted_mps_);
   return out;
 }
 
@@ -141,10 +139,16 @@ torch::Tensor PlantedHeelTerm::mean_excess_slow_share(const HeelSpeeds& s, int64
 }
 
 torch::Tensor PlantedHeelTerm::mean_sorted_speed_error(const HeelSpeeds& s, const torch::Tensor& valid,
-                                                      double cap_mps) const {
+                                                      double cap_mps, double cap_speed_fraction) const {
   if (!(cap_mps > 0)) throw Error("PlantedHeelTerm: the speed-distribution cap must be positive");
+  if (!(cap_speed_fraction >= 0)) throw Error("PlantedHeelTerm: the speed-distribution cap fraction must not be negative");
   const auto opts = s.made_mps.options();
-  auto made = s.made_mps.clamp_max(cap_mps), real = s.real_mps.to(opts).clamp_max(cap_mps);
+  auto cap = torch::full({}, cap_mps, opts);
+  if (cap_speed_fraction > 0) {
+    if (!s.root_mps.defined()) throw Error("PlantedHeelTerm: a speed-scaled cap needs the root speeds (speeds())");
+    cap = (s.root_mps.to(opts) * cap_speed_fraction).clamp_min(cap_mps);
+  }
+  auto made = torch::min(s.made_mps, cap), real = torch::min(s.real_mps.to(opts), cap);
   auto counted = torch::ones_like(made);
   if (valid.defined()) {
     // Left-out steps become -1 in both: sorted, they come first in equal numbers and cancel.

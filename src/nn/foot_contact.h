@@ -53,9 +53,10 @@ class PlantedHeelTerm {
   // frame t is the root's step into it). Computed once, they serve every term below.
   // planted_below_mps: the planted threshold of each step (m/s), [B, T-1, 1] with
   // planted_speed_fraction, else a scalar tensor; speeds assembled by hand may leave it undefined
-  // (the term's planted_mps).
+  // (the term's planted_mps). root_mps: the root's ground speed into each frame (m/s, [B, T-1, 1],
+  // not differentiated); undefined when assembled by hand.
   struct HeelSpeeds {
-    torch::Tensor made_mps, real_mps, planted_below_mps;
+    torch::Tensor made_mps, real_mps, planted_below_mps, root_mps;
   };
   HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const;
 
@@ -132,10 +133,15 @@ class PlantedHeelTerm {
   // term, met under an uncertain phase by holding the heel down over a wider span, made MoGlow's
   // drawn contacts last a fifth to a quarter longer than the takes'. speeds [B, n, K] as from
   // speeds() (steps of one sequence along dim 1); valid (optional [B, n], 0/1) leaves steps out.
-  // A scalar, differentiable in made; 0 when no step is valid. Throws mosyn::Error when cap_mps <= 0.
+  // With cap_speed_fraction f > 0 each step's cap is max(cap_mps, f x speeds.root_mps) instead, the
+  // same for the made and the real heel: a running heel's stance at 20 fps spans speeds a walk's
+  // swing reaches (session 37: at a fixed 0.6 m/s the runs' drawn stances softened, v_tol95 1.7x the
+  // takes'). A scalar, differentiable in made; 0 when no step is valid. Throws mosyn::Error when
+  // cap_mps <= 0, cap_speed_fraction < 0, or f > 0 without speeds.root_mps.
   static constexpr double kSpeedDistributionCapMps = 0.6;
   torch::Tensor mean_sorted_speed_error(const HeelSpeeds& speeds, const torch::Tensor& valid = {},
-                                        double cap_mps = kSpeedDistributionCapMps) const;
+                                        double cap_mps = kSpeedDistributionCapMps,
+                                        double cap_speed_fraction = 0.0) const;
 
   // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
   // positions form, which is relative to the root's floor point and heading) over the frames of

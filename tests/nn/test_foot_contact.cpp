@@ -363,6 +363,14 @@ TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
   EXPECT_NEAR(term.mean_sorted_speed_error(speeds, valid, cap).item<double>(), (heel0_valid + heel1_valid) / 2, 1e-12);
   EXPECT_NEAR(term.mean_sorted_speed_error(speeds, torch::zeros_like(valid), cap).item<double>(), 0.0, 1e-12);
   EXPECT_THROW(term.mean_sorted_speed_error(speeds, {}, 0.0), Error);
+  EXPECT_THROW(term.mean_sorted_speed_error(speeds, {}, cap, 0.5), Error);  // no root speeds
+  // A speed-scaled cap: the root at 2 m/s, f = 0.5 -> cap 1 m/s. Heel 0 sorted: made 0.05, 0.05,
+  // 0.9, 1, 1, 1 against 0.05, 0.05, 1, 1, 1, 1; heel 1: made 0, 0.1, 0.2, 0.2, 1, 1 against 0.1,
+  // 0.3, 0.4, 1, 1, 1. With f = 0.1 the fixed cap (0.6) is the larger.
+  const PlantedHeelTerm::HeelSpeeds at_speed{made, as_tensor(real_v), {}, torch::full({1, 6, 1}, 2.0, opts)};
+  EXPECT_NEAR(term.mean_sorted_speed_error(at_speed, {}, cap, 0.5).item<double>(), (0.1 / 6 + 1.3 / 6) / 2, 1e-12);
+  EXPECT_NEAR(term.mean_sorted_speed_error(at_speed, {}, cap, 0.1).item<double>(), (0.0 + heel1) / 2, 1e-12);
+  EXPECT_THROW(term.mean_sorted_speed_error(at_speed, {}, cap, -0.1), Error);
 }
 
 // with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that

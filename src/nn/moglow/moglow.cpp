@@ -93,6 +93,9 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
       .field("speed_distribution_cap_mps", &O::speed_distribution_cap_mps,
              "training: the speed-distribution term's cap (m/s): faster steps count as this", above_up_to(0.0, 10.0))
       .written_if([](const O& o) { return o.speed_distribution_cap_mps != PlantedHeelTerm::kSpeedDistributionCapMps; })
+      .field("speed_distribution_cap_fraction", &O::speed_distribution_cap_fraction,
+             "training: the speed-distribution term's cap max(cap_mps, this x root speed); 0 = cap_mps", at_least(0.0))
+      .written_if([](const O& o) { return o.speed_distribution_cap_fraction > 0; })
       .field("stance_relative", &O::stance_relative,
              "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
       .written_if([](const O& o) { return o.stance_relative; })
@@ -538,7 +541,8 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
     auto later = torch::ones({b, n}, seen.options()).index_put_({torch::indexing::Slice(), 0}, 0.0);
     if (drawn_valid.defined()) later = later * drawn_valid;
     out.speed_distribution_mps = planted_heels_.mean_sorted_speed_error(
-        {sequence(speeds.made_mps, n), sequence(speeds.real_mps, n), {}}, later, options_.speed_distribution_cap_mps);
+        {sequence(speeds.made_mps, n), sequence(speeds.real_mps, n), {}, sequence(speeds.root_mps, n)}, later,
+        options_.speed_distribution_cap_mps, options_.speed_distribution_cap_fraction);
   }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's

@@ -129,6 +129,9 @@ struct MoGlowOptions {
   // toe_terms it reads the toes too. 0 = off. Logged as speed_distribution_mps.
   double speed_distribution_weight = 0.0;
   double speed_distribution_cap_mps = PlantedHeelTerm::kSpeedDistributionCapMps;
+  // Each step's cap is max(speed_distribution_cap_mps, this x the root's ground speed); 0 = the
+  // fixed cap. Why: PlantedHeelTerm::mean_sorted_speed_error.
+  double speed_distribution_cap_fraction = 0.0;
   // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
   // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
   int phase_locked_frames = 0;
