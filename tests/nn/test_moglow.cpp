@@ -754,6 +754,66 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   EXPECT_THROW(create_model("moglow", teacher_forced, ctx), mosyn::Error);
 }
 
+// The speed-distribution term on the free-running draws (temperature 0) by hand: per heel, the
+// drawn and the data's speeds over draws 2..k, capped at speed_distribution_cap_mps and sorted,
+// compared pair by pair; training adds weight x the term. Its options are read and checked.
+TEST(MoGlow, SpeedDistributionTermComparesTheDrawsSpeedsWithTheData) {
+  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
+  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
+  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
+  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
+  const int64_t tau = 2, k = 8;
+  const double weight = 2.0;
+  nlohmann::json cfg = {{"num_steps", 3},          {"hidden", 16},
+                        {"tau", tau},              {"dropout", 0.0},
+                        {"residual", true},        {"foot_contact_rollout", k},
+                        {"foot_contact_temperature", 0.0}, {"speed_distribution_weight", weight}};
+  const auto make = [&](const nlohmann::json& config) {  // the same weights for every config
+    torch::manual_seed(1);
+    auto m = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", config, ctx));
+    m->to(torch::kFloat64);
+    randomise(*m, 0.02);  // gentle: the drawn heels move 0.7-2 m/s
+    m->eval();
+    return m;
+  };
+  auto model = make(cfg);
+  SampleRequest req;
+  req.prefix_pose = pose.narrow(1, 0, tau);
+  req.prefix_control = control.narrow(1, 0, tau);
+  req.control = control.narrow(1, tau, k);
+  req.temperature = 0.0;
+  const auto mps = drawn_heel_mps(model->sample(req).pose, req.prefix_pose[0][tau - 1], s, ctx.fps);
+  // The data's heels stand (0 m/s, to float32 rounding of the standing pose: 3e-5 m/s), so the
+  // sorted comparison leaves each drawn speed, capped; the cap sits among the drawn speeds.
+  std::vector<double> drawn_later;
+  for (const auto& heel : mps) drawn_later.insert(drawn_later.end(), heel.begin() + 1, heel.end());
+  std::sort(drawn_later.begin(), drawn_later.end());
+  const double cap = drawn_later[drawn_later.size() / 2];
+  ASSERT_LE(cap, 10.0);  // the option's largest
+  cfg["speed_distribution_cap_mps"] = cap;
+  model = make(cfg);
+  double by_hand = 0;
+  for (double v : drawn_later) by_hand += std::min(v, cap) / drawn_later.size();
+  const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
+  EXPECT_NEAR(eval_terms.terms.at("speed_distribution_mps").item<double>(), by_hand, 1e-4);
+  EXPECT_GT(by_hand, 0.0);
+  model->train();
+  const LossTerms train_terms = model->loss(Batch{pose, control, {}, {}});
+  const double term = train_terms.terms.at("speed_distribution_mps").item<double>();
+  EXPECT_NEAR(term, eval_terms.terms.at("speed_distribution_mps").item<double>(), 1e-9);
+  EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + weight * term, 1e-9);
+  EXPECT_DOUBLE_EQ(model->config().at("speed_distribution_cap_mps").get<double>(), cap);
+  cfg["speed_distribution_cap_fraction"] = 0.5;
+  EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("speed_distribution_cap_fraction").get<double>(), 0.5);
+  for (const auto& [key, bad] : std::vector<std::pair<std::string, double>>{
+           {"speed_distribution_cap_mps", 0.0}, {"speed_distribution_cap_mps", 11.0},
+           {"speed_distribution_cap_fraction", -0.5}, {"speed_distribution_weight", -1.0}}) {
+    nlohmann::json wrong = cfg;
+    wrong[key] = bad;
+    EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << key << " " << bad;
+  }
+}
+
 // The toe-slide term on the free-running draws by hand (temperature 0: what sampling makes from
 // the window's first tau frames; standing control, so a toe's ground step is its own): over the
 // steps between draws, each toe's floor its lowest drawn height; the standing data's toes do not
