@@ -48,6 +48,16 @@ torch::Tensor PlantedHeelTerm::raw_control(const torch::Tensor& control, const t
   return control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
 }
 
+namespace {
+
+// max(floor_mps, fraction x the root's ground speed) per step, [B, T-1, 1]: a threshold or cap that
+// rises with the gait's speed (root_mps as HeelSpeeds::root_mps).
+torch::Tensor scaled_by_root_speed(const torch::Tensor& root_mps, double floor_mps, double fraction) {
+  return (root_mps * fraction).clamp_min(floor_mps);
+}
+
+}  // namespace
+
 PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, const torch::Tensor& real,
                                                    const torch::Tensor& control) const {
   if (heels_.empty()) throw Error("PlantedHeelTerm: not built from a model context");
@@ -58,7 +68,8 @@ PlantedHeelTerm::HeelSpeeds PlantedHeelTerm::speeds(const torch::Tensor& made, c
   HeelSpeeds out{joint_ground_speed_mps(positions_m(made), ctrl, heels_, fps_),
                  joint_ground_speed_mps(positions_m(real.to(made.options())), ctrl, heels_, fps_),
                  torch::full({}, planted_mps_, made.options()), root_mps};
-  if (planted_speed_fraction_ > 0) out.planted_below_mps = (root_mps * planted_speed_fraction_).clamp_min(planted_mps_);
+  if (planted_speed_fraction_ > 0)
+    out.planted_below_mps = scaled_by_root_speed(root_mps, planted_mps_, planted_speed_fraction_);
   return out;
 }
 
@@ -146,7 +157,7 @@ torch::Tensor PlantedHeelTerm::mean_sorted_speed_error(const HeelSpeeds& s, cons
   auto cap = torch::full({}, cap_mps, opts);
   if (cap_speed_fraction > 0) {
     if (!s.root_mps.defined()) throw Error("PlantedHeelTerm: a speed-scaled cap needs the root speeds (speeds())");
-    cap = (s.root_mps.to(opts) * cap_speed_fraction).clamp_min(cap_mps);
+    cap = scaled_by_root_speed(s.root_mps.to(opts), cap_mps, cap_speed_fraction);
   }
   auto made = torch::min(s.made_mps, cap), real = torch::min(s.real_mps.to(opts), cap);
   auto counted = torch::ones_like(made);
