@@ -540,29 +540,38 @@ TEST(MoGlow, FootContactTermIsTheDrawnHeelResidualSpeed) {
 namespace {
 
 // A standing biped's 12-frame window (float64), and a small MoGlow config whose planted-heel term
-// draws k = 4 frames at temperature 0 from its first tau = 2.
+// draws k frames (4 unless given) at temperature 0 from its first tau = 2.
 struct RolloutSetup {
+  explicit RolloutSetup(int64_t draws = 4) : k(draws) {
+    cfg = {{"num_steps", 3},          {"hidden", 16},
+           {"tau", tau},              {"dropout", 0.0},
+           {"residual", true},        {"foot_contact_weight", 1.0},
+           {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}};
+  }
   const mosyn::Skeleton s = mosyn::make_synthetic_biped();
   const ModelContext ctx = mosyn::nn::testing::positions_context(s);
   const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
   const torch::Tensor pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
-  static constexpr int64_t tau = 2, k = 4;
-  nlohmann::json cfg = {{"num_steps", 3}, {"hidden", 16}, {"tau", tau}, {"dropout", 0.0}, {"residual", true},
-                        {"foot_contact_weight", 1.0}, {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}};
-  // The same sampling the term's draws are: the window's first tau frames, then k along its control.
-  SampleRequest request() const {
+  static constexpr int64_t tau = 2;
+  const int64_t k;
+  nlohmann::json cfg;
+  // The same sampling the term's draws are: the window's first tau frames (or `prefix` [1, tau, D],
+  // e.g. the mean pose of a cold start), then k along its control.
+  SampleRequest request(const torch::Tensor& prefix = {}) const {
     SampleRequest req;
-    req.prefix_pose = pose.narrow(1, 0, tau);
+    req.prefix_pose = prefix.defined() ? prefix : pose.narrow(1, 0, tau);
     req.prefix_control = control.narrow(1, 0, tau);
     req.control = control.narrow(1, tau, k);
     req.temperature = 0.0;
     return req;
   }
-  std::shared_ptr<MoGlowImpl> model() const {  // random weights, seeded alike every time
+  // Random weights (randomise at `scale`), alike for every config of the same shapes: seeded before
+  // create_model too, whose own initial weights randomise leaves.
+  std::shared_ptr<MoGlowImpl> model(double scale = 0.3) const {
+    torch::manual_seed(1);
     auto m = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
     m->to(torch::kFloat64);
-    torch::manual_seed(1);
-    randomise(*m);
+    randomise(*m, scale);
     return m;
   }
 };
@@ -572,7 +581,7 @@ struct RolloutSetup {
 TEST(MoGlow, FootContactRolloutIsSamplingFromTheWindowStart) {
   const RolloutSetup r;
   const auto& [s, ctx, pose, control] = std::tie(r.s, r.ctx, r.pose, r.control);
-  const int64_t tau = RolloutSetup::tau, k = RolloutSetup::k;
+  const int64_t tau = RolloutSetup::tau, k = r.k;
   auto model = r.model();
   model->eval();
   const double planted = model->loss(Batch{pose, control, {}, {}}).terms.at("planted_heel_mps").item<double>();
@@ -593,7 +602,7 @@ TEST(MoGlow, HeelAndPelvisTermsOnTheRolloutAddWeightTimesTerm) {
   RolloutSetup r;
   const auto& [ctx, pose, control] = std::tie(r.ctx, r.pose, r.control);
   nlohmann::json& cfg = r.cfg;
-  const int64_t tau = RolloutSetup::tau, k = RolloutSetup::k;
+  const int64_t tau = RolloutSetup::tau, k = r.k;
   // The heel-speed error: standing data's heels do not move, so on every frame it is the made
   // heel's speed, the planted term's value, less the data heel's floor speed sqrt(1e-12) m a
   // frame (nn::joint_ground_speed_mps).
@@ -692,26 +701,17 @@ double missed_stance_by_hand(const std::vector<std::vector<double>>& mps, int64_
 // adds weight x each term. With cold_start_fraction 1 the draws are what sampling makes without
 // a prefix (the mean pose as history), and the phase-locked term reads no row.
 TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
-  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
-  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
-  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
-  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
-  const int64_t tau = 2, k = 8, locked = 3, window = 3;
-  nlohmann::json cfg = {{"num_steps", 3},        {"hidden", 16},           {"tau", tau},
-                        {"dropout", 0.0},        {"residual", true},       {"foot_contact_weight", 1.0},
-                        {"foot_contact_rollout", k}, {"foot_contact_temperature", 0.0}, {"stance_weight", 2.0},
-                        {"stance_window_s", window / 30.0}, {"phase_locked_frames", locked}};
+  RolloutSetup r(8);
+  const auto& [s, ctx, pose, control] = std::tie(r.s, r.ctx, r.pose, r.control);
+  const int64_t tau = RolloutSetup::tau, locked = 3, window = 3;
+  nlohmann::json& cfg = r.cfg;
+  cfg["stance_weight"] = 2.0;
+  cfg["stance_window_s"] = window / 30.0;
+  cfg["phase_locked_frames"] = locked;
   for (const bool cold : {false, true}) {
     cfg["cold_start_fraction"] = cold ? 1.0 : 0.0;
-    auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-    model->to(torch::kFloat64);
-    torch::manual_seed(1);
-    randomise(*model);
-    SampleRequest req;
-    req.prefix_pose = cold ? torch::zeros_like(pose.narrow(1, 0, tau)) : pose.narrow(1, 0, tau);
-    req.prefix_control = control.narrow(1, 0, tau);
-    req.control = control.narrow(1, tau, k);
-    req.temperature = 0.0;
+    auto model = r.model();
+    const SampleRequest req = r.request(cold ? torch::zeros_like(pose.narrow(1, 0, tau)) : torch::Tensor());
     model->eval();
     const auto drawn = model->sample(req).pose;  // [1, k, D]
     const auto mps = drawn_heel_mps(drawn, req.prefix_pose[0][tau - 1], s, ctx.fps);
@@ -758,30 +758,17 @@ TEST(MoGlow, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
 // drawn and the data's speeds over draws 2..k, capped at speed_distribution_cap_mps and sorted,
 // compared pair by pair; training adds weight x the term. Its options are read and checked.
 TEST(MoGlow, SpeedDistributionTermComparesTheDrawsSpeedsWithTheData) {
-  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
-  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
-  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
-  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
-  const int64_t tau = 2, k = 8;
+  RolloutSetup r(8);
+  const auto& [s, ctx, pose, control] = std::tie(r.s, r.ctx, r.pose, r.control);
+  const int64_t tau = RolloutSetup::tau;
   const double weight = 2.0;
-  nlohmann::json cfg = {{"num_steps", 3},          {"hidden", 16},
-                        {"tau", tau},              {"dropout", 0.0},
-                        {"residual", true},        {"foot_contact_rollout", k},
-                        {"foot_contact_temperature", 0.0}, {"speed_distribution_weight", weight}};
-  const auto make = [&](const nlohmann::json& config) {  // the same weights for every config
-    torch::manual_seed(1);
-    auto m = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", config, ctx));
-    m->to(torch::kFloat64);
-    randomise(*m, 0.02);  // gentle: the drawn heels move 0.7-2 m/s
-    m->eval();
-    return m;
-  };
-  auto model = make(cfg);
-  SampleRequest req;
-  req.prefix_pose = pose.narrow(1, 0, tau);
-  req.prefix_control = control.narrow(1, 0, tau);
-  req.control = control.narrow(1, tau, k);
-  req.temperature = 0.0;
+  nlohmann::json& cfg = r.cfg;
+  cfg.erase("foot_contact_weight");
+  cfg["speed_distribution_weight"] = weight;
+  const double scale = 0.02;  // gentle: the drawn heels move about 1-2 m/s
+  auto model = r.model(scale);
+  model->eval();
+  const SampleRequest req = r.request();
   const auto mps = drawn_heel_mps(model->sample(req).pose, req.prefix_pose[0][tau - 1], s, ctx.fps);
   // The data's heels stand (0 m/s, to float32 rounding of the standing pose: 3e-5 m/s), so the
   // sorted comparison leaves each drawn speed, capped; the cap sits among the drawn speeds.
@@ -791,7 +778,8 @@ TEST(MoGlow, SpeedDistributionTermComparesTheDrawsSpeedsWithTheData) {
   const double cap = drawn_later[drawn_later.size() / 2];
   ASSERT_LE(cap, 10.0);  // the option's largest
   cfg["speed_distribution_cap_mps"] = cap;
-  model = make(cfg);
+  model = r.model(scale);
+  model->eval();
   double by_hand = 0;
   for (double v : drawn_later) by_hand += std::min(v, cap) / drawn_later.size();
   const LossTerms eval_terms = model->loss(Batch{pose, control, {}, {}});
@@ -819,23 +807,14 @@ TEST(MoGlow, SpeedDistributionTermComparesTheDrawsSpeedsWithTheData) {
 // steps between draws, each toe's floor its lowest drawn height; the standing data's toes do not
 // slide, so all of it is the draws' excess; training adds weight x term.
 TEST(MoGlow, ToeSlideTermReadsTheDrawnToes) {
-  const mosyn::Skeleton s = mosyn::make_synthetic_biped();
-  const ModelContext ctx = mosyn::nn::testing::positions_context(s);
-  const Batch batch = mosyn::nn::testing::standing_batch(s, ctx, 12);
-  const auto pose = batch.pose.to(torch::kFloat64), control = batch.control.to(torch::kFloat64);
-  const int64_t tau = 2, k = 8;
-  nlohmann::json cfg = {{"num_steps", 3},    {"hidden", 16},     {"tau", tau},
-                        {"dropout", 0.0},    {"residual", true}, {"foot_contact_rollout", k},
-                        {"foot_contact_temperature", 0.0},       {"toe_slide_weight", 3.0}};
-  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
-  model->to(torch::kFloat64);
-  torch::manual_seed(1);
-  randomise(*model, 0.3);
-  SampleRequest req;
-  req.prefix_pose = pose.narrow(1, 0, tau);
-  req.prefix_control = control.narrow(1, 0, tau);
-  req.control = control.narrow(1, tau, k);
-  req.temperature = 0.0;
+  RolloutSetup r(8);
+  const auto& [s, ctx, pose, control] = std::tie(r.s, r.ctx, r.pose, r.control);
+  const int64_t k = r.k;
+  nlohmann::json& cfg = r.cfg;
+  cfg.erase("foot_contact_weight");
+  cfg["toe_slide_weight"] = 3.0;
+  auto model = r.model();
+  const SampleRequest req = r.request();
   model->eval();
   const auto drawn = model->sample(req).pose;  // [1, k, D]
   double slide = 0;
