@@ -200,7 +200,7 @@ void add_eval_command(CLI::App& app, Action* action) {
   cmd->add_option("--temperature", a->options.temperature, "latent standard-deviation multiplier (default 1)");
   cmd->add_option("--warmup", a->options.warmup_s,
                   "seconds generated before each synthesised clip along its control's first step and dropped "
-                  "(default: the family's, 1 for moglow, 0 for rvae)")
+                  "(default: the run's: moglow its lead_in_s, 1 unless its config sets one; 0 for rvae)")
       ->check(CLI::Range(0.0, 60.0));
   cmd->add_option("--prefix", a->options.prefix_s, "prediction: seconds of real motion observed (default 1)");
   cmd->add_option("--horizon", a->options.horizon_s, "prediction: seconds predicted (default 2)");

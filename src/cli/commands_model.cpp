@@ -382,7 +382,7 @@ void add_sample_command(CLI::App& app, Action* action) {
   sample->add_option("--warmup", s->warmup_s,
                      "seconds generated first along the control's first step and dropped, so motion starts from a "
                      "natural pose already doing what the control starts with (walking for a clip's control and "
-                     "for a --path, whose filtered start moves at about half its speed); default: the family's, 1 for moglow, 0 for rvae")
+                     "for a --path, whose filtered start moves at about half its speed); default: the run's: moglow its lead_in_s, 1 unless its config sets one; 0 for rvae")
       ->check(CLI::Range(0.0, 60.0));
   sample->add_option("--content", s->content, "content label, for label-conditioned families");
   sample->add_option("--style", s->style, "style label, for label-conditioned families");

@@ -361,6 +361,17 @@ TEST(MoGlow, ConfigPresetsAndErrors) {
   EXPECT_EQ(m->config().at("num_steps"), 2);
   auto m2 = create_model("moglow", m->config(), ctx);
   EXPECT_EQ(m2->config(), m->config());
+  // The lead-in: the paper's 1 s unless the run records its own, which becomes the family's
+  // default warm-up for sample and eval; written only when set, so older configs stay as they were.
+  EXPECT_EQ(m->traits().default_warmup_s, 1.0);
+  EXPECT_FALSE(m->config().contains("lead_in_s"));
+  auto longer = create_model("moglow", {{"num_steps", 2}, {"hidden", 8}, {"lead_in_s", 3.0}}, ctx);
+  EXPECT_EQ(longer->traits().default_warmup_s, 3.0);
+  EXPECT_EQ(longer->config().at("lead_in_s"), 3.0);
+  EXPECT_EQ(create_model("moglow", longer->config(), ctx)->traits().default_warmup_s, 3.0);
+  EXPECT_EQ(create_model("moglow", {{"num_steps", 2}, {"hidden", 8}, {"lead_in_s", 0.0}}, ctx)->traits().default_warmup_s, 0.0);
+  EXPECT_THROW(MoGlowOptions::from_json({{"lead_in_s", -1.0}}, ctx), mosyn::Error);
+  EXPECT_THROW(MoGlowOptions::from_json({{"lead_in_s", 61.0}}, ctx), mosyn::Error);
 }
 
 // The inference stream (moglow_stream.h: fused weights, per-character generators) against the

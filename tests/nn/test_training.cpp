@@ -12,6 +12,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -682,6 +685,61 @@ TEST(Training, SpeedBalanceFlattensTheDrawsOverRootSpeed) {
   nlohmann::json bad = {{"speed_balance", 1.5}};
   EXPECT_THROW(TrainOptions::from_json(bad), Error);
   EXPECT_DOUBLE_EQ(TrainOptions::from_json({{"speed_balance", 0.5}}).speed_balance, 0.5);
+}
+
+// Label weights by hand: four clips (walk/elderly, run/elderly, run/active, unlabelled), one window
+// each, by-frames weights 1, 2, 3, 4. "run:elderly" x3 scales the second only, "*:elderly" x2
+// the first two, and both together multiply (the second x6); unknown labels and bad keys or
+// factors are errors that name what was expected.
+TEST(Training, LabelWeightsScaleTheDrawsOfTheirLabels) {
+  std::vector<data::ClipRecord> clips(4);
+  const std::vector<std::pair<int, int>> labels = {{0, 0}, {1, 0}, {1, 1}, {-1, -1}};
+  for (size_t c = 0; c < clips.size(); ++c) std::tie(clips[c].content, clips[c].style) = labels[c];
+  training::SplitWindows split;
+  split.clips = &clips;
+  split.window = 10;
+  for (int c = 0; c < 4; ++c) split.windows.push_back({c, 0, 0});
+  const std::vector<double> by_frames = {1, 2, 3, 4};
+  const std::vector<std::string> contents = {"walk", "run"}, styles = {"elderly", "active"};
+
+  const auto run_elderly = training::resolve_label_weights({{"run:elderly", 3.0}}, contents, styles);
+  ASSERT_EQ(run_elderly.size(), 1u);
+  EXPECT_EQ(run_elderly[0].content, 1);
+  EXPECT_EQ(run_elderly[0].style, 0);
+  EXPECT_EQ(training::label_weighted(split, by_frames, run_elderly), (std::vector<double>{1, 6, 3, 4}));
+  EXPECT_DOUBLE_EQ(training::label_share(split, by_frames, run_elderly[0]), 0.2);
+  EXPECT_DOUBLE_EQ(training::label_share(split, {1, 6, 3, 4}, run_elderly[0]), 6.0 / 14.0);
+
+  const auto both = training::resolve_label_weights({{"run:elderly", 3.0}, {"*:elderly", 2.0}}, contents, styles);
+  EXPECT_EQ(training::label_weighted(split, by_frames, both), (std::vector<double>{2, 12, 3, 4}));
+  // "*:*" matches the unlabelled clip too.
+  const auto all = training::resolve_label_weights({{"*:*", 0.5}}, contents, styles);
+  EXPECT_EQ(training::label_weighted(split, by_frames, all), (std::vector<double>{0.5, 1, 1.5, 2}));
+  EXPECT_EQ(training::label_weighted(split, by_frames, {}), by_frames);
+  EXPECT_THROW(training::label_weighted(split, {1.0}, run_elderly), Error);
+
+  auto message_of = [&](const std::map<std::string, double>& entries) {
+    try {
+      training::resolve_label_weights(entries, contents, styles);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message_of({{"jog:elderly", 2.0}}).find("unknown content label 'jog' (known: walk, run, or *)"),
+            std::string::npos);
+  EXPECT_NE(message_of({{"run:old", 2.0}}).find("unknown style label 'old'"), std::string::npos);
+  EXPECT_NE(message_of({{"run", 2.0}}).find("expected CONTENT:STYLE"), std::string::npos);
+  EXPECT_NE(message_of({{"run:a:b", 2.0}}).find("expected CONTENT:STYLE"), std::string::npos);
+  EXPECT_NE(message_of({{"run:elderly", 0.0}}).find("(0, 1000]"), std::string::npos);
+
+  // Through the options: read, written back only when set, bad factors refused.
+  const TrainOptions read = TrainOptions::from_json({{"label_weights", {{"run:elderly", 3.0}}}});
+  EXPECT_DOUBLE_EQ(read.label_weights.at("run:elderly"), 3.0);
+  EXPECT_EQ(read.to_json()["label_weights"], (nlohmann::json{{"run:elderly", 3.0}}));
+  EXPECT_FALSE(TrainOptions{}.to_json().contains("label_weights"));
+  EXPECT_THROW(TrainOptions::from_json({{"label_weights", {{"run:elderly", -1.0}}}}), Error);
+  EXPECT_THROW(TrainOptions::from_json({{"label_weights", {{"run:elderly", "three"}}}}), Error);
 }
 
 // Clips shorter than the window: left out (with a warning that names the labels never seen) for

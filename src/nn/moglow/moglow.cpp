@@ -153,7 +153,11 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .written_if([](const O& o) { return o.residual; })
           .field("history_noise", &O::history_noise,
                  "training: std of Gaussian noise on the poses conditioned on (standardised units)", at_least(0.0))
-          .written_if([](const O& o) { return o.history_noise > 0; }))
+          .written_if([](const O& o) { return o.history_noise > 0; })
+          .field("lead_in_s", &O::lead_in_s,
+                 "sampling: seconds generated along the control's first step and dropped (without a prefix)",
+                 in_range(0.0, 60.0))
+          .written_if([](const O& o) { return o.lead_in_s != 1.0; }))
           .rule(lookahead_problem);
   return fields;
 }
@@ -686,7 +690,7 @@ ModelTraits MoGlowImpl::traits() const {
   t.prefix = true;
   t.streaming = lookahead_dim_ == 0;
   t.independent_rows = true;
-  t.default_warmup_s = 1.0;
+  t.default_warmup_s = options_.lead_in_s;
   return t;
 }
 

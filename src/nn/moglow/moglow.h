@@ -62,6 +62,12 @@ struct MoGlowOptions {
   // frames it scores, so it learns to pull its own slightly-off poses back (with `residual`, the
   // error of each frame would otherwise carry on into the next). 0 = off (the paper).
   double history_noise = 0.0;
+  // Sampling: seconds generated first along the control's first step and dropped when no prefix is
+  // given and the caller leaves the choice to the family (ModelTraits::default_warmup_s, `--warmup`).
+  // From the mean pose the model needs time to settle into the gait: the paper pre-generates 1 s;
+  // a model whose fast gaits settle later records a longer lead-in here, so that its run directory
+  // samples as it was measured (models/moglow-lookahead: 3 s, session 38).
+  double lead_in_s = 1.0;
   // Training only, positions form: weight of the planted-heel term (nn/foot_contact.h), the mean
   // ground speed (m/s) of the heels of frames drawn from the flow (temperature 1, teacher-forced
   // history) where the data's heels are planted. The likelihood alone leaves planted feet

@@ -40,6 +40,68 @@ std::vector<double> clip_frame_weights(const SplitWindows& split) {
   return weights;
 }
 
+namespace {
+
+int label_index(const std::string& name, const std::vector<std::string>& vocabulary, const char* kind,
+                const std::string& key) {
+  if (name == "*") return kAnyLabel;
+  const auto it = std::find(vocabulary.begin(), vocabulary.end(), name);
+  if (it != vocabulary.end()) return static_cast<int>(it - vocabulary.begin());
+  std::string known;
+  for (const std::string& v : vocabulary) known += (known.empty() ? "" : ", ") + v;
+  throw Error("label_weights: '" + key + "': unknown " + kind + " label '" + name + "' (known: " +
+              (known.empty() ? "none, the dataset is unlabelled" : known) + ", or *)");
+}
+
+bool matches(const data::ClipRecord& clip, const LabelWeight& entry) {
+  return (entry.content == kAnyLabel || clip.content == entry.content) &&
+         (entry.style == kAnyLabel || clip.style == entry.style);
+}
+
+}  // namespace
+
+std::vector<LabelWeight> resolve_label_weights(const std::map<std::string, double>& entries,
+                                               const std::vector<std::string>& content_labels,
+                                               const std::vector<std::string>& style_labels) {
+  std::vector<LabelWeight> out;
+  for (const auto& [key, factor] : entries) {
+    const size_t colon = key.find(':');
+    if (colon == std::string::npos || key.find(':', colon + 1) != std::string::npos)
+      throw Error("label_weights: '" + key + "': expected CONTENT:STYLE (either may be *), e.g. run:elderly");
+    if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
+      throw Error("label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor));
+    LabelWeight w;
+    w.content = label_index(key.substr(0, colon), content_labels, "content", key);
+    w.style = label_index(key.substr(colon + 1), style_labels, "style", key);
+    w.factor = factor;
+    w.key = key;
+    out.push_back(w);
+  }
+  return out;
+}
+
+double label_share(const SplitWindows& split, const std::vector<double>& weights, const LabelWeight& entry) {
+  if (weights.size() != split.windows.size()) throw Error("label_share: one weight per window expected");
+  double matched = 0, total = 0;
+  for (size_t i = 0; i < weights.size(); ++i) {
+    total += weights[i];
+    if (matches((*split.clips)[static_cast<size_t>(split.windows[i].clip)], entry)) matched += weights[i];
+  }
+  return total > 0 ? matched / total : 0;
+}
+
+std::vector<double> label_weighted(const SplitWindows& split, const std::vector<double>& weights,
+                                   const std::vector<LabelWeight>& entries) {
+  if (weights.size() != split.windows.size()) throw Error("label_weighted: one weight per window expected");
+  std::vector<double> out = weights;
+  for (size_t i = 0; i < out.size(); ++i) {
+    const data::ClipRecord& clip = (*split.clips)[static_cast<size_t>(split.windows[i].clip)];
+    for (const LabelWeight& e : entries)
+      if (matches(clip, e)) out[i] *= e.factor;
+  }
+  return out;
+}
+
 double clip_root_speed_mps(const data::ClipRecord& clip, int control_dim, double fps) {
   if (clip.num_frames < 1 || control_dim < 2) return 0;
   double metres = 0;

@@ -5,6 +5,7 @@
 #include <torch/types.h>
 
 #include <map>
+#include <string>
 #include <vector>
 
 #include "data/dataset.h"
@@ -31,6 +32,32 @@ SplitWindows training_windows(const data::Dataset& dataset, int window, int min_
 // "frames": each clip's weight is its number of frames, shared alike by its windows (a padded
 // short clip's one window gets all of it). Sum = the frames of the clips that give a window.
 std::vector<double> clip_frame_weights(const SplitWindows& split);
+
+// A label wildcard of LabelWeight: any content or style, unlabelled clips included.
+constexpr int kAnyLabel = -2;
+
+// One TrainOptions::label_weights entry resolved against a dataset's vocabularies.
+struct LabelWeight {
+  int content = kAnyLabel;  // index into DatasetInfo::content_labels, or kAnyLabel
+  int style = kAnyLabel;    // index into DatasetInfo::style_labels, or kAnyLabel
+  double factor = 1.0;
+  std::string key;          // as given ("run:elderly"), for messages
+};
+
+// Resolves "CONTENT:STYLE" keys ("*" = any) against the vocabularies. Throws mosyn::Error for a key
+// without exactly one ':', a label the dataset does not know (naming the known ones), or a factor
+// that is not finite and in (0, 1000].
+std::vector<LabelWeight> resolve_label_weights(const std::map<std::string, double>& entries,
+                                               const std::vector<std::string>& content_labels,
+                                               const std::vector<std::string>& style_labels);
+
+// The share (0..1) of the total weight held by the windows whose clips match entry.
+double label_share(const SplitWindows& split, const std::vector<double>& weights, const LabelWeight& entry);
+
+// weights (one per window of split, same order) times the factor of every entry each window's clip
+// matches. Throws mosyn::Error unless one weight per window.
+std::vector<double> label_weighted(const SplitWindows& split, const std::vector<double>& weights,
+                                   const std::vector<LabelWeight>& entries);
 
 // Width of the root-speed bins of speed_balanced, m/s.
 constexpr double kSpeedBinMps = 0.5;

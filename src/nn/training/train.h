@@ -73,6 +73,13 @@ struct TrainOptions {
   // speed (training::speed_balanced). 0 = off; 1 = every occupied speed bin drawn alike.
   // For data whose rare speeds the model gets wrong (Bandai-Namco's fast runs, 3% of the frames).
   double speed_balance = 0;
+  // Draws the windows of some labels more (or less) often: {"CONTENT:STYLE": factor}, "*" on
+  // either side for any label (e.g. {"run:elderly": 3}). A window's weight, as window_sampling
+  // gives it, is multiplied by the factor of every entry its clip matches, before speed_balance.
+  // For a combination the data holds little of at the speeds others fill: the model blends it
+  // into its neighbours (Bandai-Namco's elderly runs, 1.2-1.8 m/s, were drawn with the longer
+  // stances of walks at those speeds; models/moglow-lookahead, session 38). Empty = off.
+  std::map<std::string, double> label_weights;
   double lr = 1e-3;               // peak learning rate (Adam; the default stage's)
   int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
   double grad_clip = 5.0;         // max global gradient L2 norm; <= 0 disables clipping

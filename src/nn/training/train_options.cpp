@@ -1,4 +1,5 @@
 // TrainOptions as JSON (config.json "train", train-config.json files).
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -9,7 +10,7 @@
 namespace mosyn::nn {
 
 nlohmann::json TrainOptions::to_json() const {
-  return {{"family", family},
+  nlohmann::json j = {{"family", family},
           {"data_dir", data_dir},
           {"out_dir", out_dir},
           {"model_config", model_config},
@@ -29,6 +30,9 @@ nlohmann::json TrainOptions::to_json() const {
           {"val_windows", val_windows},
           {"log_every", log_every},
           {"init_from", init_from}};
+  // Written only when set, so configs of runs made before the option stay as they were.
+  if (!label_weights.empty()) j["label_weights"] = label_weights;
+  return j;
 }
 
 TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
@@ -46,6 +50,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "window") o.window = io::json_get<int>(v);
       else if (k == "window_sampling") o.window_sampling = v.get<std::string>();
       else if (k == "speed_balance") o.speed_balance = v.get<double>();
+      else if (k == "label_weights") o.label_weights = v.get<std::map<std::string, double>>();
       else if (k == "lr") o.lr = v.get<double>();
       else if (k == "warmup") o.warmup = io::json_get<int>(v);
       else if (k == "grad_clip") o.grad_clip = v.get<double>();
@@ -65,6 +70,9 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       throw Error("window_sampling must be \"windows\" or \"frames\", got \"" + o.window_sampling + "\"");
     if (!(o.speed_balance >= 0 && o.speed_balance <= 1))
       throw Error("speed_balance must lie in [0, 1], got " + std::to_string(o.speed_balance));
+    for (const auto& [key, factor] : o.label_weights)
+      if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
+        throw Error("label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor));
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

@@ -139,7 +139,7 @@ class Trainer {
   std::unique_ptr<training::LogAppender> log_;
   std::mt19937_64 rng_;
   std::uniform_int_distribution<size_t> pick_;  // window_sampling "windows" without speed_balance
-  std::optional<std::discrete_distribution<size_t>> pick_weighted_;  // "frames" or speed_balance
+  std::optional<std::discrete_distribution<size_t>> pick_weighted_;  // "frames", speed_balance or label_weights
   std::vector<data::WindowRef> chosen_;
   int step_ = 0;        // optimiser steps done, over all stages
   int stage_ = 0;       // current stage
@@ -257,6 +257,21 @@ void Trainer::build_model(const nlohmann::json& model_config) {
 
 namespace {
 
+// "label weights: run:elderly x3 3.1% -> 8.8% of the draws" for the log.
+std::string label_weights_message(const training::SplitWindows& split, const std::vector<double>& before,
+                                  const std::vector<double>& after,
+                                  const std::vector<training::LabelWeight>& entries) {
+  std::ostringstream out;
+  out << "label weights: share of the draws";
+  for (const training::LabelWeight& e : entries) {
+    out << (&e == &entries.front() ? " " : ", ") << e.key << " x" << e.factor << " " << std::fixed
+        << std::setprecision(1) << 100 * training::label_share(split, before, e) << "% -> "
+        << 100 * training::label_share(split, after, e) << "%";
+    out.unsetf(std::ios::fixed);
+  }
+  return out.str();
+}
+
 // "speed balance: draws per mean root speed 0-0.5 m/s 3% -> 9%, ..." for the log.
 std::string speed_balance_message(const std::map<int, double>& before, const std::map<int, double>& after) {
   std::ostringstream out;
@@ -281,9 +296,16 @@ void Trainer::prepare_data() {
   if (const std::string w = training::left_out_warning(dataset_, window, min_short); !w.empty()) message(w);
   maker_ = std::make_unique<training::BatchMaker>(dataset_, context_.pose_dim, context_.control_dim, device_);
   pick_ = std::uniform_int_distribution<size_t>(0, train_.windows.size() - 1);
-  if (opts_.window_sampling == "frames" || opts_.speed_balance > 0) {
+  if (opts_.window_sampling == "frames" || opts_.speed_balance > 0 || !opts_.label_weights.empty()) {
     std::vector<double> weights = opts_.window_sampling == "frames" ? training::clip_frame_weights(train_)
                                                                     : std::vector<double>(train_.windows.size(), 1.0);
+    if (!opts_.label_weights.empty()) {
+      const auto entries = training::resolve_label_weights(opts_.label_weights, dataset_.info().content_labels,
+                                                           dataset_.info().style_labels);
+      const std::vector<double> weighted = training::label_weighted(train_, weights, entries);
+      message(label_weights_message(train_, weights, weighted, entries));
+      weights = weighted;
+    }
     if (opts_.speed_balance > 0) {
       training::SpeedBalance balance = training::speed_balanced(train_, weights, context_.control_dim,
                                                                 dataset_.info().fps, opts_.speed_balance);
