@@ -60,16 +60,22 @@ bool matches(const data::ClipRecord& clip, const LabelWeight& entry) {
 
 }  // namespace
 
+std::string label_weight_problem(const std::string& key, double factor) {
+  const size_t colon = key.find(':');
+  if (colon == std::string::npos || key.find(':', colon + 1) != std::string::npos)
+    return "label_weights: '" + key + "': expected CONTENT:STYLE (either may be *), e.g. run:elderly";
+  if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
+    return "label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor);
+  return "";
+}
+
 std::vector<LabelWeight> resolve_label_weights(const std::map<std::string, double>& entries,
                                                const std::vector<std::string>& content_labels,
                                                const std::vector<std::string>& style_labels) {
   std::vector<LabelWeight> out;
   for (const auto& [key, factor] : entries) {
+    if (const std::string problem = label_weight_problem(key, factor); !problem.empty()) throw Error(problem);
     const size_t colon = key.find(':');
-    if (colon == std::string::npos || key.find(':', colon + 1) != std::string::npos)
-      throw Error("label_weights: '" + key + "': expected CONTENT:STYLE (either may be *), e.g. run:elderly");
-    if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
-      throw Error("label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor));
     LabelWeight w;
     w.content = label_index(key.substr(0, colon), content_labels, "content", key);
     w.style = label_index(key.substr(colon + 1), style_labels, "style", key);

@@ -1,10 +1,10 @@
 // TrainOptions as JSON (config.json "train", train-config.json files).
-#include <cmath>
 #include <cstdint>
 #include <string>
 
 #include "core/error.h"
 #include "io/json_number.h"
+#include "nn/training/batches.h"
 #include "nn/training/train.h"
 
 namespace mosyn::nn {
@@ -71,8 +71,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
     if (!(o.speed_balance >= 0 && o.speed_balance <= 1))
       throw Error("speed_balance must lie in [0, 1], got " + std::to_string(o.speed_balance));
     for (const auto& [key, factor] : o.label_weights)
-      if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
-        throw Error("label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor));
+      if (const std::string problem = training::label_weight_problem(key, factor); !problem.empty()) throw Error(problem);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {

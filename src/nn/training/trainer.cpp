@@ -138,7 +138,7 @@ class Trainer {
   std::unique_ptr<training::BatchMaker> maker_;
   std::unique_ptr<training::LogAppender> log_;
   std::mt19937_64 rng_;
-  std::uniform_int_distribution<size_t> pick_;  // window_sampling "windows" without speed_balance
+  std::uniform_int_distribution<size_t> pick_;  // window_sampling "windows" without speed_balance or label_weights
   std::optional<std::discrete_distribution<size_t>> pick_weighted_;  // "frames", speed_balance or label_weights
   std::vector<data::WindowRef> chosen_;
   int step_ = 0;        // optimiser steps done, over all stages
