@@ -122,13 +122,17 @@ export function startPlayback(data) {
   let last = null;
   function tick(now) {
     const dt = last === null ? 0 : (now - last) / 1000;
+    let looped = false;
     if (last !== null && playing && duration > 0) {
       time += dt * speed;
-      if (time > duration) time = time % duration;
+      looped = time > duration;
+      if (looped) time = time % duration;
     }
     last = now;
     pose(time);
-    stage.frame(framedBox(), dt);
+    // A loop back to the start is a cut: the camera jumps with it instead of gliding back along
+    // the path for a second (which left a followed figure small and off-centre).
+    stage.frame(framedBox(), looped ? 0 : dt);
     stage.render();
     document.body.dataset.frameTime = time.toFixed(3);
     requestAnimationFrame(tick);
