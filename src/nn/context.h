@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/skeleton.h"
 #include "data/dataset.h"
@@ -26,6 +27,10 @@ struct ModelContext {
   Skeleton skeleton;
   data::FeatureLayout layout;
   data::DatasetStats stats;
+  // The label vocabularies (DatasetInfo::content_labels, style_labels; num_content and num_style
+  // entries), for options that name labels (MoGlow's lift_off_labels). Empty when built by hand.
+  std::vector<std::string> content_labels;
+  std::vector<std::string> style_labels;
 };
 
 }  // namespace mosyn::nn

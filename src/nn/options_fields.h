@@ -15,7 +15,8 @@
 //
 // The declaring calls (field, written_if, rule, ignore) chain on a temporary, so a list is built in
 // one expression and then only read (one static list per family).
-// Supported member types: int, double, bool, std::string, std::vector<int>, std::vector<double>.
+// Supported member types: int, double, bool, std::string, std::vector<int>, std::vector<double>,
+// std::vector<std::string>, std::map<std::string, double>.
 // Errors are mosyn::Error "<family> config: ...". Header-only; no LibTorch.
 #pragma once
 
@@ -24,6 +25,7 @@
 #include <functional>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <set>
 #include <string>
 #include <type_traits>
@@ -82,8 +84,20 @@ struct JsonType<std::vector<E>> {
     return true;
   }
   static const char* error() {
+    if constexpr (std::is_same_v<E, std::string>) return "must be an array of strings";
     return std::is_same_v<E, int> ? "must be an array of integers" : "must be an array of numbers";
   }
+};
+
+template <>
+struct JsonType<std::map<std::string, double>> {
+  static bool is(const nlohmann::json& j) {
+    if (!j.is_object()) return false;
+    for (const auto& item : j.items())
+      if (!item.value().is_number()) return false;
+    return true;
+  }
+  static const char* error() { return "must be an object of numbers"; }
 };
 
 // A number as the messages write it: 1, 0.5, 1000.

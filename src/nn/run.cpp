@@ -356,6 +356,8 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
     throw Error(stats_path + ": statistics do not match the model's dimensions");
   run.context.skeleton = run.dataset.skeleton;  // the data itself (ModelContext), not in "context"
   run.context.layout = run.dataset.layout;
+  run.context.content_labels = run.dataset.content_labels;
+  run.context.style_labels = run.dataset.style_labels;
   run.context.stats = run.stats;
   const torch::Device device = parse_device(options.device);
   run.kind = family_info(run.family).kind;

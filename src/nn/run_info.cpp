@@ -36,6 +36,8 @@ ModelContext context_for(const data::DatasetInfo& info, const data::DatasetStats
   c.skeleton = info.skeleton;
   c.layout = info.layout;
   c.stats = stats;
+  c.content_labels = info.content_labels;
+  c.style_labels = info.style_labels;
   return c;
 }
 

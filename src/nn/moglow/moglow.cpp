@@ -13,6 +13,7 @@
 #include "nn/config_json.h"
 #include "nn/options_fields.h"
 #include "nn/label_features.h"
+#include "nn/label_pattern.h"
 #include "nn/moglow/moglow_stream.h"
 
 namespace mosyn::nn {
@@ -67,6 +68,25 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
              "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
              at_least(0.0))
       .written_if([](const O& o) { return o.lift_off_weight > 0; })
+      .field("lift_off_labels", &O::lift_off_labels,
+             "training: the windows (CONTENT:STYLE patterns, * = any) the lingering-heel term reads; empty = all")
+      .written_if([](const O& o) { return !o.lift_off_labels.empty(); })
+      .rule([](const O& o) {
+        for (const std::string& key : o.lift_off_labels)
+          if (std::string problem = label_pattern_problem(key, "lift_off_labels"); !problem.empty()) return problem;
+        return std::string();
+      })
+      .field("heel_label_weights", &O::heel_label_weights,
+             "training: {\"CONTENT:STYLE\": factor} weights of the windows in the heel and pelvis terms")
+      .written_if([](const O& o) { return !o.heel_label_weights.empty(); })
+      .rule([](const O& o) {
+        for (const auto& [key, factor] : o.heel_label_weights) {
+          if (std::string problem = label_pattern_problem(key, "heel_label_weights"); !problem.empty()) return problem;
+          if (!(std::isfinite(factor) && factor >= 0 && factor <= 1000))
+            return "heel_label_weights: '" + key + "': the factor must lie in [0, 1000]";
+        }
+        return std::string();
+      })
       .field("pelvis_follow_weight", &O::pelvis_follow_weight,
              "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
              at_least(0.0))
@@ -344,6 +364,12 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
     heel_options.toe_weight = options.toe_term_weight;
     planted_heels_ = PlantedHeelTerm(context, "moglow", heel_options);
   }
+  if (!options.heel_label_weights.empty())
+    heel_weight_table_ = label_weight_table(options.heel_label_weights, context.content_labels, context.style_labels,
+                                            context.num_content, context.num_style, "moglow config: heel_label_weights");
+  if (!options.lift_off_labels.empty())
+    lift_off_table_ = label_pattern_table(options.lift_off_labels, context.content_labels, context.style_labels,
+                                          context.num_content, context.num_style, "moglow config: lift_off_labels");
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -483,11 +509,27 @@ torch::Tensor MoGlowImpl::rollout(const torch::Tensor& seen, const torch::Tensor
   return torch::stack(std::vector<torch::Tensor>(frames.end() - k, frames.end()), 1);
 }
 
+namespace {
+
+// [B, 1] in `options`: table's entry (label_table_rows) for each row of batch; ones without a table.
+torch::Tensor label_rows(const torch::Tensor& table, const Batch& batch, const torch::TensorOptions& options) {
+  const int64_t b = batch.pose.size(0);
+  if (!table.defined()) return torch::ones({b, 1}, options);
+  return label_table_rows(table.to(options.device()), batch.content, batch.style, b).to(options).view({b, 1});
+}
+
+}  // namespace
+
 MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
-                                             const torch::Tensor& valid) {
+                                             const torch::Tensor& frame_valid) {
   const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
   int64_t n = e.z.size(1);
   const int64_t b = seen.size(0);
+  // heel_label_weights: each window's weight in the terms' means, on top of its valid frames.
+  torch::Tensor valid = frame_valid;
+  if (heel_weight_table_.defined())
+    valid = (frame_valid.defined() ? frame_valid : torch::ones({b, n}, seen.options())) *
+            label_rows(heel_weight_table_, batch, seen.options());
   // 1 for the rows whose draws start from the data's frames, 0 for cold starts (the mean pose).
   const auto warm_rows =
       (torch::arange(b, torch::dtype(torch::kInt64).device(seen.device())) >=
@@ -524,16 +566,17 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   };
   const int64_t locked = options_.phase_locked_frames > 0 ? std::min<int64_t>(n, options_.phase_locked_frames) : n;
   const PlantedHeelTerm::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),
-                                          sequence(speeds.planted_below_mps, locked)};
+                                          sequence(speeds.planted_below_mps, locked), {}};
   const auto first_valid = (valid.defined() ? valid.narrow(1, 0, locked) : torch::ones({b, locked}, seen.options())) *
                            warm_rows.view({b, 1});
   HeelTerms out;
   out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
   if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);
-  if (options_.lift_off_weight > 0) out.lingering_mps = planted_heels_.mean_lingering_speed(first, first_valid);
+  if (options_.lift_off_weight > 0)
+    out.lingering_mps = planted_heels_.mean_lingering_speed(first, first_valid * label_rows(lift_off_table_, batch, seen.options()));
   if (options_.stance_weight > 0 || options_.slow_share_weight > 0) {
     const PlantedHeelTerm::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
-                                          sequence(speeds.planted_below_mps, n)};
+                                          sequence(speeds.planted_below_mps, n), {}};
     const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
     if (options_.stance_weight > 0)
       out.missed_stance_mps = planted_heels_.mean_missed_stance(all, window, drawn_valid, options_.stance_relative);

@@ -14,6 +14,7 @@
 
 #include <c10/util/Optional.h>
 
+#include <map>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -90,6 +91,20 @@ struct MoGlowOptions {
   // plant but stay slow too long (contacts at 15 cm/s 0.40 s in walks against the takes' 0.32);
   // the speed error above also charges every swing. 0 = off. Logged as lingering_heel_mps.
   double lift_off_weight = 0.0;
+  // Training only: the windows the lingering-heel term reads, as "CONTENT:STYLE" patterns over the
+  // dataset's labels (nn/label_pattern.h; "*" = any); empty = every window. Why (session 39): the
+  // runs' drawn heels lift slowly (the elderly runs' stances 0.34 s against the takes' 0.28), while
+  // the term on every window also lifted the heels of the drawn paths' walks and stops early
+  // (their feet slid 1.7x the takes'). Needs the context's vocabularies (a dataset or run).
+  std::vector<std::string> lift_off_labels;
+  // Training only: {"CONTENT:STYLE": factor} (nn/label_pattern.h; "*" = any) weights of the
+  // windows of those labels in the means of the heel and pelvis terms (the product of the factors
+  // of every pattern a window matches; 1 where none does; 0 leaves a window out). The toe-slide
+  // term, a mean of per-window means, is unweighted. Why (session 39): the elderly runs drawn three
+  // times as often (TrainOptions::label_weights) stepped closer to their takes, but the likelihood
+  // then learnt the elderly jog as often as walks, and the drawn paths' feet slid; this weights
+  // the terms alone. Needs the context's vocabularies (a dataset or run).
+  std::map<std::string, double> heel_label_weights;
   // Training only, positions form: weight of the pelvis term on the same draws
   // (PlantedHeelTerm::mean_pelvis_offset_m: horizontal distance, m, between the made and the data's
   // pelvis, both relative to the root). The likelihood scores each frame under the true history, so
@@ -353,6 +368,11 @@ class MoGlowImpl : public MotionModel {
   double dropout_ = 0.0;
   PoseTransport transport_;  // with options_.residual
   PlantedHeelTerm planted_heels_;  // with options_.heel_terms_on()
+  // [num_content + 1, num_style + 1] float, 1 for the labels whose windows the lingering-heel term
+  // reads (label_pattern_table); undefined = every window.
+  torch::Tensor lift_off_table_;
+  // The same for heel_label_weights: each entry the product of its labels' factors (label_weight_table).
+  torch::Tensor heel_weight_table_;
   // The heel and pelvis terms of a batch on one set of draws (MoGlowOptions::foot_contact_weight,
   // heel_speed_weight, lift_off_weight, pelvis_follow_weight): scalars in m/s (m for the pelvis).
   // seen = the poses conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined =
@@ -362,7 +382,7 @@ class MoGlowImpl : public MotionModel {
     torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps,
         excess_slow_share, speed_distribution_mps;
   };
-  HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& valid);
+  HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& frame_valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
   // of frames tau..tau+k-1 generated from seen frames 0..tau-1, conditioned as e.cond apart from
   // the history.

@@ -42,28 +42,14 @@ std::vector<double> clip_frame_weights(const SplitWindows& split) {
 
 namespace {
 
-int label_index(const std::string& name, const std::vector<std::string>& vocabulary, const char* kind,
-                const std::string& key) {
-  if (name == "*") return kAnyLabel;
-  const auto it = std::find(vocabulary.begin(), vocabulary.end(), name);
-  if (it != vocabulary.end()) return static_cast<int>(it - vocabulary.begin());
-  std::string known;
-  for (const std::string& v : vocabulary) known += (known.empty() ? "" : ", ") + v;
-  throw Error("label_weights: '" + key + "': unknown " + kind + " label '" + name + "' (known: " +
-              (known.empty() ? "none, the dataset is unlabelled" : known) + ", or *)");
-}
-
 bool matches(const data::ClipRecord& clip, const LabelWeight& entry) {
-  return (entry.content == kAnyLabel || clip.content == entry.content) &&
-         (entry.style == kAnyLabel || clip.style == entry.style);
+  return label_pattern_matches(entry, clip.content, clip.style);
 }
 
 }  // namespace
 
 std::string label_weight_problem(const std::string& key, double factor) {
-  const size_t colon = key.find(':');
-  if (colon == std::string::npos || key.find(':', colon + 1) != std::string::npos)
-    return "label_weights: '" + key + "': expected CONTENT:STYLE (either may be *), e.g. run:elderly";
+  if (std::string problem = label_pattern_problem(key, "label_weights"); !problem.empty()) return problem;
   if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
     return "label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor);
   return "";
@@ -75,12 +61,9 @@ std::vector<LabelWeight> resolve_label_weights(const std::map<std::string, doubl
   std::vector<LabelWeight> out;
   for (const auto& [key, factor] : entries) {
     if (const std::string problem = label_weight_problem(key, factor); !problem.empty()) throw Error(problem);
-    const size_t colon = key.find(':');
     LabelWeight w;
-    w.content = label_index(key.substr(0, colon), content_labels, "content", key);
-    w.style = label_index(key.substr(colon + 1), style_labels, "style", key);
+    static_cast<LabelPattern&>(w) = resolve_label_pattern(key, content_labels, style_labels, "label_weights");
     w.factor = factor;
-    w.key = key;
     out.push_back(w);
   }
   return out;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "data/dataset.h"
+#include "nn/label_pattern.h"
 #include "nn/standardiser.h"
 #include "nn/trainable.h"
 
@@ -33,15 +34,10 @@ SplitWindows training_windows(const data::Dataset& dataset, int window, int min_
 // short clip's one window gets all of it). Sum = the frames of the clips that give a window.
 std::vector<double> clip_frame_weights(const SplitWindows& split);
 
-// A label wildcard of LabelWeight: any content or style, unlabelled clips included.
-constexpr int kAnyLabel = -2;
-
-// One TrainOptions::label_weights entry resolved against a dataset's vocabularies.
-struct LabelWeight {
-  int content = kAnyLabel;  // index into DatasetInfo::content_labels, or kAnyLabel
-  int style = kAnyLabel;    // index into DatasetInfo::style_labels, or kAnyLabel
+// One TrainOptions::label_weights entry resolved against a dataset's vocabularies
+// (nn/label_pattern.h: content, style, key).
+struct LabelWeight : LabelPattern {
   double factor = 1.0;
-  std::string key;          // as given ("run:elderly"), for messages
 };
 
 // The problem with one TrainOptions::label_weights entry on its own, "" if none: a key without exactly
