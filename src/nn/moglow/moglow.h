@@ -382,6 +382,14 @@ class MoGlowImpl : public MotionModel {
     torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps,
         excess_slow_share, speed_distribution_mps;
   };
+  // The draws the terms read: made [B, n, D] standardised frames tau..tau+n-1 and prev [B, n, D]
+  // the frame before each (n: foot_contact_rollout's draws run free from the window's first tau
+  // frames, or the mean pose on the cold-start rows; without it one teacher-forced draw of every
+  // predicted frame), warm_rows [B] 1 for the rows started from the data's frames.
+  struct HeelDraws {
+    torch::Tensor made, prev, warm_rows;
+  };
+  HeelDraws heel_draws(const Batch& batch, const torch::Tensor& seen, const Encoded& e);
   HeelTerms heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e, const torch::Tensor& frame_valid);
   // The free-running draws of the term (foot_contact_rollout = k > 0): [B, k, D] standardised poses
   // of frames tau..tau+k-1 generated from seen frames 0..tau-1, conditioned as e.cond apart from

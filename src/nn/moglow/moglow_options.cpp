@@ -1,0 +1,201 @@
+// MoGlow's options (MoGlowOptions): the JSON keys, their checks and the presets.
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "nn/label_pattern.h"
+#include "nn/moglow/moglow.h"
+#include "nn/options_fields.h"
+
+namespace mosyn::nn {
+
+namespace {
+
+// The paper's data dropout on the pose history: 0.95 for joint positions (Sec. 4.1), which carry
+// the motion's state redundantly; 0.6 for rotations, which do not.
+double default_dropout(data::PoseForm form) {
+  switch (form) {
+    case data::PoseForm::kRotations: return 0.6;
+    case data::PoseForm::kPositions: return 0.95;
+    case data::PoseForm::kMarkers: return 0.95;  // positions of surface points: as joint positions
+  }
+  throw Error("moglow: invalid pose form");
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+namespace {
+
+// Look-ahead offsets: at most 16, each at most 1000 frames (entries >= 1 is checked on reading).
+std::string lookahead_problem(const MoGlowOptions& o) {
+  if (o.lookahead.size() > 16) return "at most 16 look-ahead offsets";
+  for (int k : o.lookahead)
+    if (k > 1000) return "look-ahead offsets must be at most 1000 frames";
+  return "";
+}
+
+// The training terms on free-running draws (heel, pelvis, stance, toe): positions form only.
+OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
+  using O = MoGlowOptions;
+  return std::move(fields)
+      .field("foot_contact_weight", &O::foot_contact_weight,
+             "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.foot_contact_weight > 0; })
+      .field("foot_contact_rollout", &O::foot_contact_rollout,
+             "frames of the planted-heel term generated from the model's own history; 0 = teacher-forced",
+             at_least(0))
+      .written_if([](const O& o) { return o.foot_contact_rollout > 0; })
+      .field("foot_contact_temperature", &O::foot_contact_temperature,
+             "latent standard deviation of the planted-heel term's draws", at_least(0.0))
+      .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
+      .field("heel_speed_weight", &O::heel_speed_weight,
+             "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.heel_speed_weight > 0; })
+      .field("lift_off_weight", &O::lift_off_weight,
+             "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.lift_off_weight > 0; })
+      .field("lift_off_labels", &O::lift_off_labels,
+             "training: the windows (CONTENT:STYLE patterns, * = any) the lingering-heel term reads; empty = all")
+      .written_if([](const O& o) { return !o.lift_off_labels.empty(); })
+      .rule([](const O& o) {
+        for (const std::string& key : o.lift_off_labels)
+          if (std::string problem = label_pattern_problem(key, "lift_off_labels"); !problem.empty()) return problem;
+        return std::string();
+      })
+      .field("heel_label_weights", &O::heel_label_weights,
+             "training: {\"CONTENT:STYLE\": factor} weights of the windows in the heel and pelvis terms")
+      .written_if([](const O& o) { return !o.heel_label_weights.empty(); })
+      .rule([](const O& o) {
+        for (const auto& [key, factor] : o.heel_label_weights) {
+          if (std::string problem = label_pattern_problem(key, "heel_label_weights"); !problem.empty()) return problem;
+          if (!(std::isfinite(factor) && factor >= 0 && factor <= 1000))
+            return "heel_label_weights: '" + key + "': the factor must lie in [0, 1000]";
+        }
+        return std::string();
+      })
+      .field("pelvis_follow_weight", &O::pelvis_follow_weight,
+             "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
+      .field("planted_mps", &O::planted_mps, "training: heel terms' planted threshold (m/s)", above_up_to(0.0, 1.0))
+      .written_if([](const O& o) { return o.planted_mps != kDefaultPlantedMps; })
+      .field("planted_speed_fraction", &O::planted_speed_fraction,
+             "training: heel terms' planted threshold max(planted_mps, this x root speed); 0 = planted_mps", at_least(0.0))
+      .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
+      .field("stance_weight", &O::stance_weight,
+             "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.stance_weight > 0; })
+      .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
+             at_least(0.05))
+      .written_if([](const O& o) { return o.stance_weight > 0 || o.slow_share_weight > 0; })
+      .field("slow_share_weight", &O::slow_share_weight,
+             "training: weight of the slow-share term on the stance term's runs (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.slow_share_weight > 0; })
+      .field("speed_distribution_weight", &O::speed_distribution_weight,
+             "training: weight of the phase-free speed-distribution term on the free-running draws (positions form)",
+             at_least(0.0))
+      .written_if([](const O& o) { return o.speed_distribution_weight > 0; })
+      .field("speed_distribution_cap_mps", &O::speed_distribution_cap_mps,
+             "training: the speed-distribution term's cap (m/s): faster steps count as this", above_up_to(0.0, 10.0))
+      .written_if([](const O& o) { return o.speed_distribution_cap_mps != PlantedHeelTerm::kSpeedDistributionCapMps; })
+      .field("speed_distribution_cap_fraction", &O::speed_distribution_cap_fraction,
+             "training: the speed-distribution term's cap max(cap_mps, this x root speed); 0 = cap_mps", at_least(0.0))
+      .written_if([](const O& o) { return o.speed_distribution_cap_fraction > 0; })
+      .field("stance_relative", &O::stance_relative,
+             "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
+      .written_if([](const O& o) { return o.stance_relative; })
+      .field("phase_locked_frames", &O::phase_locked_frames,
+             "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
+      .written_if([](const O& o) { return o.phase_locked_frames > 0; })
+      .field("cold_start_fraction", &O::cold_start_fraction,
+             "training: share of windows whose heel-term draws start from the mean pose", in_range(0.0, 1.0))
+      .written_if([](const O& o) { return o.cold_start_fraction > 0; })
+      .rule([](const O& o) -> std::string {
+        return o.cold_start_fraction > 0 && o.foot_contact_rollout < 1
+                   ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
+                   : "";
+      })
+      .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
+      .written_if([](const O& o) { return o.toe_terms; })
+      .field("toe_term_weight", &O::toe_term_weight, "training: each toe's weight in the heel terms (a heel's is 1)",
+             above_up_to(0.0, 1.0))
+      .written_if([](const O& o) { return o.toe_term_weight != 1.0; })
+      .rule([](const O& o) -> std::string {
+        return o.toe_term_weight != 1.0 && !o.toe_terms ? "toe_term_weight needs toe_terms" : "";
+      })
+      .field("toe_slide_weight", &O::toe_slide_weight,
+             "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
+      .written_if([](const O& o) { return o.toe_slide_weight > 0; })
+      .rule([](const O& o) -> std::string {
+        return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
+                   ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
+                   : "";
+      });
+}
+
+const OptionFields<MoGlowOptions>& moglow_fields() {
+  using O = MoGlowOptions;
+  static const auto fields =
+      with_foot_terms(OptionFields<O>("moglow")
+          .field("preset", &O::preset, "named defaults: \"default\" or \"paper\" (K=16, 2 x 512 LSTM, tau=10)")
+          .field("num_steps", &O::num_steps, "K, steps of flow", at_least(1))
+          .field("hidden", &O::hidden, "LSTM units per layer in each coupling network", at_least(1))
+          .field("lstm_layers", &O::lstm_layers, "LSTM layers per coupling network", at_least(1))
+          .field("tau", &O::tau, "frames of pose history conditioned on", at_least(1))
+          .field("dropout", &O::dropout, "data dropout of history frames; < 0 = by pose form", in_range(0.0, 1.0))
+          .field("scale_eps", &O::scale_eps, "coupling scale floor: s = sigmoid(h + 2) + scale_eps", at_least(0.0))
+          .field("labels", &O::labels, "content and style labels as conditions")
+          .written_if([](const O& o) { return o.labels; })
+          .field("label_dropout", &O::label_dropout, "probability a window's label is dropped in training",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.labels; })
+          .field_checked_on_read("lookahead", &O::lookahead, "look-ahead offsets (frames) of the path; empty = causal",
+                                 entries_at_least(1))
+          .written_if([](const O& o) { return !o.lookahead.empty(); })
+          .field("short_clips", &O::short_clips, "train on clips shorter than the window (padding masked)")
+          .written_if([](const O& o) { return !o.short_clips; })
+          .field("residual", &O::residual, "the flow models each frame minus the transported previous one")
+          .written_if([](const O& o) { return o.residual; })
+          .field("history_noise", &O::history_noise,
+                 "training: std of Gaussian noise on the poses conditioned on (standardised units)", at_least(0.0))
+          .written_if([](const O& o) { return o.history_noise > 0; })
+          .field("lead_in_s", &O::lead_in_s,
+                 "sampling: seconds generated along the control's first step and dropped (without a prefix)",
+                 in_range(0.0, 60.0))
+          .written_if([](const O& o) { return o.lead_in_s != 1.0; }))
+          .rule(lookahead_problem);
+  return fields;
+}
+
+}  // namespace
+
+MoGlowOptions MoGlowOptions::from_json(const nlohmann::json& config, const ModelContext& context) {
+  const auto& fields = moglow_fields();
+  MoGlowOptions o;
+  if (!config.is_object()) throw Error("moglow config must be a JSON object");
+  if (config.contains("preset")) fields.read_key(config, "preset", &o);  // the preset's defaults first
+  if (o.preset == "paper") {
+    o.num_steps = 16;
+    o.hidden = 512;
+    o.lstm_layers = 2;
+    o.tau = 10;
+  } else if (o.preset != "default") {
+    throw Error("moglow config: unknown preset '" + o.preset + "' (known: default, paper)");
+  }
+  fields.read(config, &o);
+  if (o.dropout < 0) o.dropout = default_dropout(context.pose_form);
+  fields.check(o);
+  return o;
+}
+
+// Labels, look-ahead and the residual are written only when on (short_clips only when off), so
+// configs of runs made before they existed stay byte-identical.
+nlohmann::json MoGlowOptions::to_json() const { return moglow_fields().write(*this); }
+
+}  // namespace mosyn::nn
