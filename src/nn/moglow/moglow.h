@@ -93,17 +93,17 @@ struct MoGlowOptions {
   double lift_off_weight = 0.0;
   // Training only: the windows the lingering-heel term reads, as "CONTENT:STYLE" patterns over the
   // dataset's labels (nn/label_pattern.h; "*" = any); empty = every window. Why (session 39): the
-  // runs' drawn heels lift slowly (the elderly runs' stances 0.34 s against the takes' 0.28), while
-  // the term on every window also lifted the heels of the drawn paths' walks and stops early
-  // (their feet slid 1.7x the takes'). Needs the context's vocabularies (a dataset or run).
+  // runs' drawn heels lift slowly (the elderly runs' stances 0.34 s against the takes' 0.28), and
+  // the term on every window had come with sliding drawn paths (1.7x the takes'). Needs the
+  // context's vocabularies (a dataset or run).
   std::vector<std::string> lift_off_labels;
   // Training only: {"CONTENT:STYLE": factor} (nn/label_pattern.h; "*" = any) weights of the
   // windows of those labels in the means of the heel and pelvis terms (the product of the factors
   // of every pattern a window matches; 1 where none does; 0 leaves a window out). The toe-slide
   // term, a mean of per-window means, is unweighted. Why (session 39): the elderly runs drawn three
-  // times as often (TrainOptions::label_weights) stepped closer to their takes, but the likelihood
-  // then learnt the elderly jog as often as walks, and the drawn paths' feet slid; this weights
-  // the terms alone. Needs the context's vocabularies (a dataset or run).
+  // times as often (TrainOptions::label_weights) stepped closer to their takes while the drawn
+  // paths' feet slid; this weights the terms alone, leaving the likelihood's draws as they are.
+  // Needs the context's vocabularies (a dataset or run).
   std::map<std::string, double> heel_label_weights;
   // Training only, positions form: weight of the pelvis term on the same draws
   // (PlantedHeelTerm::mean_pelvis_offset_m: horizontal distance, m, between the made and the data's
