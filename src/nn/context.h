@@ -28,7 +28,7 @@ struct ModelContext {
   data::FeatureLayout layout;
   data::DatasetStats stats;
   // The label vocabularies (DatasetInfo::content_labels, style_labels; num_content and num_style
-  // entries), for options that name labels (MoGlow's lift_off_labels). Empty when built by hand.
+  // entries), for options that name labels (MoGlow's lift_off_labels, heel_label_weights). Empty when built by hand.
   std::vector<std::string> content_labels;
   std::vector<std::string> style_labels;
 };

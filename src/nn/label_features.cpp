@@ -1,9 +1,6 @@
 #include "nn/label_features.h"
 
-#include <cmath>
-#include <functional>
 #include <string>
-#include <utility>
 
 #include "core/error.h"
 #include "nn/label_pattern.h"
@@ -42,25 +39,25 @@ torch::Tensor label_features(const torch::Tensor& content, const torch::Tensor& 
 
 namespace {
 
-// [num_content + 1, num_style + 1] filled with `initial`, then each (key, value) applied by
-// apply(entry, value) to the entries its pattern matches.
-torch::Tensor label_table(const std::vector<std::pair<std::string, double>>& entries, double initial,
-                          const std::function<float(float, double)>& apply, const std::vector<std::string>& content_labels,
-                          const std::vector<std::string>& style_labels, int num_content, int num_style,
-                          const std::string& what) {
+// [num_content + 1, num_style + 1] float, 1 where a clip of content c and style s (-1 = none: row or
+// column 0) matches `key`, else 0.
+torch::Tensor pattern_mask(const std::string& key, const std::vector<std::string>& content_labels,
+                           const std::vector<std::string>& style_labels, const std::string& what) {
+  const int num_content = static_cast<int>(content_labels.size()), num_style = static_cast<int>(style_labels.size());
+  const LabelPattern p = resolve_label_pattern(key, content_labels, style_labels, what);
+  auto mask = torch::zeros({num_content + 1, num_style + 1});
+  auto acc = mask.accessor<float, 2>();
+  for (int c = -1; c < num_content; ++c)
+    for (int s = -1; s < num_style; ++s) acc[c + 1][s + 1] = label_pattern_matches(p, c, s) ? 1.0f : 0.0f;
+  return mask;
+}
+
+void check_vocabularies(const std::vector<std::string>& content_labels, const std::vector<std::string>& style_labels,
+                        int num_content, int num_style, const std::string& what) {
   if (static_cast<int>(content_labels.size()) != num_content || static_cast<int>(style_labels.size()) != num_style)
     throw Error(what + ": needs the dataset's label vocabularies (" + std::to_string(num_content) + " content and " +
                 std::to_string(num_style) + " style labels; this context has " +
                 std::to_string(content_labels.size()) + " and " + std::to_string(style_labels.size()) + ")");
-  auto table = torch::full({num_content + 1, num_style + 1}, initial);
-  auto acc = table.accessor<float, 2>();
-  for (const auto& [key, value] : entries) {
-    const LabelPattern p = resolve_label_pattern(key, content_labels, style_labels, what);
-    for (int c = -1; c < num_content; ++c)
-      for (int s = -1; s < num_style; ++s)
-        if (label_pattern_matches(p, c, s)) acc[c + 1][s + 1] = apply(acc[c + 1][s + 1], value);
-  }
-  return table;
 }
 
 }  // namespace
@@ -68,22 +65,21 @@ torch::Tensor label_table(const std::vector<std::pair<std::string, double>>& ent
 torch::Tensor label_pattern_table(const std::vector<std::string>& patterns, const std::vector<std::string>& content_labels,
                                   const std::vector<std::string>& style_labels, int num_content, int num_style,
                                   const std::string& what) {
-  std::vector<std::pair<std::string, double>> entries;
-  for (const std::string& key : patterns) entries.emplace_back(key, 1.0);
-  return label_table(entries, 0.0, [](float, double) { return 1.0f; }, content_labels, style_labels, num_content,
-                     num_style, what);
+  check_vocabularies(content_labels, style_labels, num_content, num_style, what);
+  auto table = torch::zeros({num_content + 1, num_style + 1});
+  for (const std::string& key : patterns) table = torch::max(table, pattern_mask(key, content_labels, style_labels, what));
+  return table;
 }
 
 torch::Tensor label_weight_table(const std::map<std::string, double>& factors,
                                  const std::vector<std::string>& content_labels,
                                  const std::vector<std::string>& style_labels, int num_content, int num_style,
                                  const std::string& what) {
+  check_vocabularies(content_labels, style_labels, num_content, num_style, what);
+  auto table = torch::ones({num_content + 1, num_style + 1});
   for (const auto& [key, factor] : factors)
-    if (!(std::isfinite(factor) && factor >= 0))
-      throw Error(what + ": '" + key + "': the factor must be finite and >= 0, got " + std::to_string(factor));
-  return label_table({factors.begin(), factors.end()}, 1.0,
-                     [](float entry, double factor) { return static_cast<float>(entry * factor); }, content_labels,
-                     style_labels, num_content, num_style, what);
+    table = table * (1.0 + (factor - 1.0) * pattern_mask(key, content_labels, style_labels, what));
+  return table;
 }
 
 torch::Tensor label_table_rows(const torch::Tensor& table, const torch::Tensor& content, const torch::Tensor& style,

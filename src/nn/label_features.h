@@ -33,7 +33,8 @@ torch::Tensor label_pattern_table(const std::vector<std::string>& patterns, cons
                                   const std::string& what);
 
 // As label_pattern_table, with a factor per pattern: each entry is the product of the factors of
-// the patterns its labels match (1 where none does). Factors must be finite and >= 0.
+// the patterns its labels match (1 where none does). The factors are the caller's to check
+// (label_factor_problem).
 torch::Tensor label_weight_table(const std::map<std::string, double>& factors,
                                  const std::vector<std::string>& content_labels,
                                  const std::vector<std::string>& style_labels, int num_content, int num_style,

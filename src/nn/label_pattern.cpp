@@ -1,6 +1,7 @@
 #include "nn/label_pattern.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/error.h"
 
@@ -25,6 +26,14 @@ std::string label_pattern_problem(const std::string& key, const std::string& wha
   const size_t colon = key.find(':');
   if (colon == std::string::npos || key.find(':', colon + 1) != std::string::npos)
     return what + ": '" + key + "': expected CONTENT:STYLE (either may be *), e.g. run:elderly";
+  return "";
+}
+
+std::string label_factor_problem(const std::string& key, double factor, const std::string& what, bool zero_allowed) {
+  if (std::string problem = label_pattern_problem(key, what); !problem.empty()) return problem;
+  if (!(std::isfinite(factor) && (zero_allowed ? factor >= 0 : factor > 0) && factor <= 1000))
+    return what + ": '" + key + "': the factor must lie in " + (zero_allowed ? "[0" : "(0") + ", 1000], got " +
+           std::to_string(factor);
   return "";
 }
 

@@ -1,6 +1,6 @@
 // "CONTENT:STYLE" patterns over a dataset's label vocabularies ("*" = any label, unlabelled clips
 // included), shared by the options that single out labels: the trainer's label_weights and
-// MoGlow's lift_off_labels.
+// MoGlow's lift_off_labels and heel_label_weights.
 #pragma once
 
 #include <string>
@@ -21,6 +21,10 @@ struct LabelPattern {
 // The problem with a pattern's form, "" if none: `what` (the option, e.g. "label_weights") names
 // it in the message; a pattern needs exactly one ':' ("run:elderly", "run:*", "*:*").
 std::string label_pattern_problem(const std::string& key, const std::string& what);
+
+// The problem with one "CONTENT:STYLE": factor entry, "" if none: the key's form (as above) or a
+// factor that is not finite and in (0, 1000] ([0, 1000] with zero_allowed).
+std::string label_factor_problem(const std::string& key, double factor, const std::string& what, bool zero_allowed);
 
 // Resolves `key` against the vocabularies. Throws mosyn::Error, starting with `what`, for a
 // malformed key or a label the vocabulary lacks (naming the known ones).

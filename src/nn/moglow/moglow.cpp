@@ -355,17 +355,15 @@ MoGlowImpl::HeelDraws MoGlowImpl::heel_draws(const Batch& batch, const torch::Te
 
 MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
                                              const torch::Tensor& frame_valid) {
-  const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim;
-  int64_t n = e.z.size(1);
-  const int64_t b = seen.size(0);
-  // heel_label_weights: each window's weight in the terms' means, on top of its valid frames.
+  const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim, b = seen.size(0);
+  // heel_label_weights: each window's weight in the terms' means, on top of its valid frames [B, T'].
   torch::Tensor valid = frame_valid;
   if (heel_weight_table_.defined())
-    valid = (frame_valid.defined() ? frame_valid : torch::ones({b, n}, seen.options())) *
+    valid = (frame_valid.defined() ? frame_valid : torch::ones({b, e.z.size(1)}, seen.options())) *
             label_rows(heel_weight_table_, batch, seen.options());
   const HeelDraws draws = heel_draws(batch, seen, e);
   const auto &made = draws.made, &prev = draws.prev, &warm_rows = draws.warm_rows;
-  n = made.size(1);
+  const int64_t n = made.size(1);
   // Each predicted frame with the frame before it: [B n, 2, .] pairs, one ground step each.
   auto pairs = [](const torch::Tensor& before, const torch::Tensor& after, int64_t f) {
     return torch::stack({before, after}, 2).reshape({-1, 2, f});
@@ -389,8 +387,10 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   HeelTerms out;
   out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
   if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);
-  if (options_.lift_off_weight > 0)
-    out.lingering_mps = planted_heels_.mean_lingering_speed(first, first_valid * label_rows(lift_off_table_, batch, seen.options()));
+  if (options_.lift_off_weight > 0) {
+    const auto lift_off_valid = first_valid * label_rows(lift_off_table_, batch, seen.options());  // lift_off_labels
+    out.lingering_mps = planted_heels_.mean_lingering_speed(first, lift_off_valid);
+  }
   if (options_.stance_weight > 0 || options_.slow_share_weight > 0) {
     const PlantedHeelTerm::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
                                           sequence(speeds.planted_below_mps, n), {}};

@@ -1,5 +1,4 @@
 // MoGlow's options (MoGlowOptions): the JSON keys, their checks and the presets.
-#include <cmath>
 #include <string>
 
 #include "core/error.h"
@@ -71,11 +70,10 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
              "training: {\"CONTENT:STYLE\": factor} weights of the windows in the heel and pelvis terms")
       .written_if([](const O& o) { return !o.heel_label_weights.empty(); })
       .rule([](const O& o) {
-        for (const auto& [key, factor] : o.heel_label_weights) {
-          if (std::string problem = label_pattern_problem(key, "heel_label_weights"); !problem.empty()) return problem;
-          if (!(std::isfinite(factor) && factor >= 0 && factor <= 1000))
-            return "heel_label_weights: '" + key + "': the factor must lie in [0, 1000]";
-        }
+        for (const auto& [key, factor] : o.heel_label_weights)
+          if (std::string problem = label_factor_problem(key, factor, "heel_label_weights", /*zero_allowed=*/true);
+              !problem.empty())
+            return problem;
         return std::string();
       })
       .field("pelvis_follow_weight", &O::pelvis_follow_weight,

@@ -48,23 +48,14 @@ bool matches(const data::ClipRecord& clip, const LabelWeight& entry) {
 
 }  // namespace
 
-std::string label_weight_problem(const std::string& key, double factor) {
-  if (std::string problem = label_pattern_problem(key, "label_weights"); !problem.empty()) return problem;
-  if (!(std::isfinite(factor) && factor > 0 && factor <= 1000))
-    return "label_weights: '" + key + "': the factor must lie in (0, 1000], got " + std::to_string(factor);
-  return "";
-}
-
 std::vector<LabelWeight> resolve_label_weights(const std::map<std::string, double>& entries,
                                                const std::vector<std::string>& content_labels,
                                                const std::vector<std::string>& style_labels) {
   std::vector<LabelWeight> out;
   for (const auto& [key, factor] : entries) {
-    if (const std::string problem = label_weight_problem(key, factor); !problem.empty()) throw Error(problem);
-    LabelWeight w;
-    static_cast<LabelPattern&>(w) = resolve_label_pattern(key, content_labels, style_labels, "label_weights");
-    w.factor = factor;
-    out.push_back(w);
+    const std::string problem = label_factor_problem(key, factor, "label_weights", /*zero_allowed=*/false);
+    if (!problem.empty()) throw Error(problem);
+    out.push_back({resolve_label_pattern(key, content_labels, style_labels, "label_weights"), factor});
   }
   return out;
 }

@@ -40,11 +40,6 @@ struct LabelWeight : LabelPattern {
   double factor = 1.0;
 };
 
-// The problem with one TrainOptions::label_weights entry on its own, "" if none: a key without exactly
-// one ':' or a factor that is not finite and in (0, 1000]. Checked where the options are read and
-// again where they are resolved.
-std::string label_weight_problem(const std::string& key, double factor);
-
 // Resolves "CONTENT:STYLE" keys ("*" = any) against the vocabularies. Throws mosyn::Error for a key
 // without exactly one ':', a label the dataset does not know (naming the known ones), or a factor
 // that is not finite and in (0, 1000].

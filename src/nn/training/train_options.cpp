@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 #include "io/json_number.h"
-#include "nn/training/batches.h"
+#include "nn/label_pattern.h"
 #include "nn/training/train.h"
 
 namespace mosyn::nn {
@@ -71,7 +71,9 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
     if (!(o.speed_balance >= 0 && o.speed_balance <= 1))
       throw Error("speed_balance must lie in [0, 1], got " + std::to_string(o.speed_balance));
     for (const auto& [key, factor] : o.label_weights)
-      if (const std::string problem = training::label_weight_problem(key, factor); !problem.empty()) throw Error(problem);
+      if (const std::string problem = label_factor_problem(key, factor, "label_weights", /*zero_allowed=*/false);
+          !problem.empty())
+        throw Error(problem);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
