@@ -210,7 +210,10 @@ torch::Tensor PlantedHeelTerm::mean_toe_slide(const torch::Tensor& frames, const
 torch::Tensor PlantedHeelTerm::mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& real,
                                                     const torch::Tensor& control, const torch::Tensor& valid) const {
   const auto data = toe_slide_per_row(real.to(made.options()), control, valid).detach();
-  return torch::relu(toe_slide_per_row(made, control, valid) - data).mean();
+  const auto excess = torch::relu(toe_slide_per_row(made, control, valid) - data);  // [B]
+  if (!valid.defined()) return excess.mean();
+  const auto rows = (valid.to(made.options()).sum(1) > 0).to(made.options());  // rows with a step to read
+  return (excess * rows).sum() / rows.sum().clamp_min(1.0);
 }
 
 torch::Tensor PlantedHeelTerm::mean_speed_error(const HeelSpeeds& s, const torch::Tensor& valid) const {

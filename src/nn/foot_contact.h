@@ -170,7 +170,8 @@ class PlantedHeelTerm {
   // The toe-slide term: per row, how much more the made toes slide than the real ones of the same
   // window (max(0, made - real) of toe_slide_per_row; real toes slide too, about a tenth of the
   // frames of a Bandai-Namco walk), averaged over rows (m/s). Charging all of it pushed the model
-  // off the data and wrecked the gait within 100 steps (session 31). made, real [B, T, D].
+  // off the data and wrecked the gait within 100 steps (session 31). made, real [B, T, D]; rows
+  // whose valid steps are all 0 are left out of the mean (0 when no row has one).
   torch::Tensor mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& real,
                                       const torch::Tensor& control, const torch::Tensor& valid = {}) const;
 

@@ -328,6 +328,56 @@ TEST(MoGlowHeelTerms, ToeSlideTermReadsTheDrawnToes) {
   }
 }
 
+// toe_slide_below_root_mps: the term reads only the steps into draws whose control (the data's root)
+// moves slower than the bar. The control stands for the first `slow` draws and walks at 1 m/s after,
+// so the steps read are the standing ones, by hand as above; a control walking everywhere leaves none.
+TEST(MoGlowHeelTerms, ToeSlideBelowRootSpeedReadsTheSlowStepsOnly) {
+  RolloutSetup r(8);
+  const auto& [s, ctx, pose] = std::tie(r.s, r.ctx, r.pose);
+  const int64_t k = r.k, tau = RolloutSetup::tau, slow = 5;
+  auto control = r.control.clone();  // positions_context's statistics are 0 / 1: standardised = raw
+  control.narrow(1, tau + slow, k - slow).select(2, 1).fill_(1.0 / ctx.fps);  // forward 1 m/s
+  nlohmann::json& cfg = r.cfg;
+  cfg.erase("foot_contact_weight");
+  cfg["toe_slide_weight"] = 3.0;
+  cfg["toe_slide_below_root_mps"] = 0.5;
+  auto model = r.model();
+  model->eval();
+  SampleRequest req = r.request();
+  req.control = control.narrow(1, tau, k);
+  const auto drawn = model->sample(req).pose;  // [1, k, D]
+  double slide = 0;
+  for (int toe : {s.find("Toes_L"), s.find("Toes_R")}) {
+    double floor = 1e9;
+    for (int64_t t = 0; t < k; ++t) floor = std::min(floor, drawn[0][t][3 * toe + 1].item<double>());
+    for (int64_t t = 1; t < slow; ++t) {  // the steps into draws 1 .. slow - 1 stand
+      const double mps = std::hypot((drawn[0][t][3 * toe] - drawn[0][t - 1][3 * toe]).item<double>(),
+                                    (drawn[0][t][3 * toe + 2] - drawn[0][t - 1][3 * toe + 2]).item<double>()) * ctx.fps;
+      const double above = drawn[0][t - 1][3 * toe + 1].item<double>() - floor;
+      slide += std::max(0.0, mps - 0.1) / (1.0 + std::exp(-(0.01 - above) / 0.003));
+    }
+  }
+  slide /= 2.0 * (slow - 1);
+  EXPECT_GT(slide, 0.0);
+  EXPECT_NEAR(model->loss(Batch{pose, control, {}, {}}).terms.at("toe_slide_mps").item<double>(), slide, 1e-6);
+  EXPECT_DOUBLE_EQ(model->config().at("toe_slide_below_root_mps").get<double>(), 0.5);
+  cfg["toe_slide_below_root_mps"] = 0.01;  // the standing steps' 0 m/s is below it, too: same reading
+  auto low_bar = r.model();
+  low_bar->eval();
+  EXPECT_NEAR(low_bar->loss(Batch{pose, control, {}, {}}).terms.at("toe_slide_mps").item<double>(), slide, 1e-6);
+  // A control walking everywhere leaves no step to read: the term is 0, not NaN.
+  control.narrow(1, tau, k).select(2, 1).fill_(1.0 / ctx.fps);
+  auto walking = r.model();
+  walking->eval();
+  EXPECT_EQ(walking->loss(Batch{pose, control, {}, {}}).terms.at("toe_slide_mps").item<double>(), 0.0);
+  for (const auto& [key, bad] : std::vector<std::pair<std::string, double>>{{"toe_slide_below_root_mps", -0.1},
+                                                                             {"toe_slide_weight", 0.0}}) {
+    nlohmann::json wrong = cfg;  // negative; and no toe-slide term to gate
+    wrong[key] = bad;
+    EXPECT_THROW(create_model("moglow", wrong, ctx), mosyn::Error) << key;
+  }
+}
+
 namespace {
 
 // Two windows of a synthetic walk at 1.2 and 1.7 m/s labelled walk and run (style neutral), in a

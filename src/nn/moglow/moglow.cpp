@@ -410,9 +410,14 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   }
   if (options_.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
-    // mean pose is no frame of the motion.
-    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(
-        made, real_drawn, batch.control.narrow(1, tau, n), valid.defined() ? drawn_valid.narrow(1, 1, n - 1) : valid);
+    // mean pose is no frame of the motion. Step s (draw s -> s + 1) is the root's step into draw s + 1.
+    auto steps = valid.defined() ? drawn_valid.narrow(1, 1, n - 1) : valid;
+    if (options_.toe_slide_below_root_mps > 0) {
+      const auto slow = (sequence(speeds.root_mps, n).squeeze(-1).narrow(1, 1, n - 1) < options_.toe_slide_below_root_mps)
+                            .to(seen.dtype());
+      steps = steps.defined() ? steps * slow : slow;
+    }
+    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(made, real_drawn, batch.control.narrow(1, tau, n), steps);
   }
   if (options_.pelvis_follow_weight > 0)
     out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, real_drawn, drawn_valid);

@@ -179,6 +179,11 @@ struct MoGlowOptions {
   // within a few hundred steps (src/nn/moglow/README.md, session 31), and at 0.2 (session 34);
   // kept for further work.
   double toe_slide_weight = 0.0;
+  // Training only, with toe_slide_weight: the toe-slide term reads only the steps where the data's
+  // root (the control) moves slower than this (m/s), i.e. stops, starts and standing; 0 = every
+  // step. Why: on every step the term made the walking feet shuffle (session 39), while the slide
+  // that continued training brings is in the slow frames (toes under 0.6 m/s of pelvis speed).
+  double toe_slide_below_root_mps = 0.0;
   // Whether training draws frames for the heel terms (any weight above is on).
   bool heel_terms_on() const {
     return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||

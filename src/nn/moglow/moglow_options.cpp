@@ -134,6 +134,14 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
         return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
                    ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
                    : "";
+      })
+      .field("toe_slide_below_root_mps", &O::toe_slide_below_root_mps,
+             "training: the toe-slide term reads steps where the data's root is slower (m/s); 0 = all", at_least(0.0))
+      .written_if([](const O& o) { return o.toe_slide_below_root_mps > 0; })
+      .rule([](const O& o) -> std::string {
+        return o.toe_slide_below_root_mps > 0 && o.toe_slide_weight <= 0
+                   ? "toe_slide_below_root_mps needs toe_slide_weight > 0"
+                   : "";
       });
 }
 
