@@ -256,6 +256,47 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
   return static_cast<double>(skating) / (motion.num_frames - 1);
 }
 
+namespace {
+
+// The p-th percentile (0..100) of values, linear between order statistics; values not empty.
+double percentile(std::vector<double> values, double p) {
+  std::sort(values.begin(), values.end());
+  const double rank = p / 100.0 * static_cast<double>(values.size() - 1);
+  const size_t below = static_cast<size_t>(std::floor(rank));
+  const size_t above = std::min(below + 1, values.size() - 1);
+  return values[below] + (rank - static_cast<double>(below)) * (values[above] - values[below]);
+}
+
+}  // namespace
+
+double toe_slide_ratio(const MotionPositions& motion, const FootJoints& feet, const ToeSlideOptions& options) {
+  if (!(options.floor_percentile >= 0 && options.floor_percentile <= 100) || !(options.height_threshold_m > 0) ||
+      !(options.speed_threshold_mps > 0))
+    throw Error("toe_slide_ratio: floor_percentile in [0, 100] and positive thresholds expected");
+  std::vector<int> toes;
+  for (int j : {feet.left_toe, feet.right_toe})
+    if (j >= 0) toes.push_back(j);
+  if (toes.empty()) return std::numeric_limits<double>::quiet_NaN();
+  if (motion.num_frames < 2) return 0.0;
+  std::vector<double> floor;
+  for (int j : toes) {
+    std::vector<double> heights(motion.num_frames);
+    for (int t = 0; t < motion.num_frames; ++t) heights[t] = motion.position(t, j)[motion.up_axis];
+    floor.push_back(percentile(std::move(heights), options.floor_percentile));
+  }
+  int sliding = 0;
+  for (int t = 1; t < motion.num_frames; ++t) {
+    bool any = false;
+    for (size_t k = 0; k < toes.size() && !any; ++k) {
+      const Eigen::Vector3d& a = motion.position(t - 1, toes[k]);
+      const double speed = horizontal(motion.position(t, toes[k]) - a, motion.up_axis).norm() * motion.fps;
+      any = a[motion.up_axis] - floor[k] < options.height_threshold_m && speed > options.speed_threshold_mps;
+    }
+    sliding += any ? 1 : 0;
+  }
+  return static_cast<double>(sliding) / (motion.num_frames - 1);
+}
+
 std::vector<double> slower_foot_speed_mps(const MotionPositions& motion, const FootJoints& feet) {
   if (feet.left_heel < 0 || feet.right_heel < 0) throw Error("slower_foot_speed_mps: needs both heel joints");
   std::vector<double> slower = horizontal_speed_mps(motion, feet.left_heel);

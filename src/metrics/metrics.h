@@ -143,6 +143,23 @@ struct FootSkatingOptions {
 // fewer than 2 frames.
 double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet, const FootSkatingOptions& options = {});
 
+// Toe sliding, the rule of the independent check (../shared/checks/natural_motion.py, its "foot
+// skating"): each toe's floor is a low percentile of its height over the motion (robust to a
+// stray low frame, where the lowest point is not); a transition t-1 -> t slides when a toe within
+// height_threshold_m of its floor at t-1 moves horizontally faster than speed_threshold_mps. One
+// toe suffices. Stricter than MOJO's measure above: a toe dragging while the other foot stands,
+// or shuffling at a stop, counts (sessions 38-40 of models/moglow-lookahead).
+struct ToeSlideOptions {
+  double height_threshold_m = 0.01;
+  double speed_threshold_mps = 0.10;
+  double floor_percentile = 5.0;  // in [0, 100], linear between order statistics
+};
+
+// Fraction (0..1) of frame transitions t-1 -> t (t = 1..T-1) in which a toe of `feet` slides (above).
+// NaN when the motion has no toe joint; 0 for fewer than 2 frames. Throws mosyn::Error when
+// floor_percentile is outside [0, 100] or a threshold is not positive.
+double toe_slide_ratio(const MotionPositions& motion, const FootJoints& feet, const ToeSlideOptions& options = {});
+
 // Horizontal speed (m/s) of the slower heel at every frame transition t-1 -> t (t = 1..T-1): near
 // zero while a foot is planted, so its median tells a walk (a foot down at almost every instant:
 // a few cm/s on Bandai-Namco walks) from a glide (both feet moving) and shows whether a body that

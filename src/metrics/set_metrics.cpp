@@ -35,13 +35,16 @@ std::vector<MetricValue> set_metrics(const std::vector<MotionPositions>& motions
   rows.push_back({"footsteps.fixed_tol.contact_mean_s", "contact mean (s) at " + fixed_cmps + " cm/s",
                   steps.contact_mean_at_fixed_tol_s});
 
-  double skating = 0, bone_sq = 0;
+  double skating = 0, toe_slide = 0, bone_sq = 0;
+  int with_toes = 0;
   long bone_count = 0;
   std::map<std::string, std::pair<double, int>> deformation;
   std::vector<std::string> part_order = {"head", "upper torso", "lower torso"};
   for (size_t i = 0; i < motions.size(); ++i) {
     const auto& m = motions[i];
     skating += foot_skating_ratio(m, feet[i], options.skating);
+    const double toes = toe_slide_ratio(m, feet[i], options.toe_slide);
+    if (!std::isnan(toes)) toe_slide += toes, ++with_toes;
     const double rmse = bone_length_rmse_m(m);
     const long n = static_cast<long>(m.num_frames) * (m.num_joints - 1);
     bone_sq += rmse * rmse * n;
@@ -53,6 +56,7 @@ std::vector<MetricValue> set_metrics(const std::vector<MotionPositions>& motions
     }
   }
   rows.push_back({"foot_skating_ratio", "foot skating ratio", skating / motions.size()});
+  rows.push_back({"toe_slide_ratio", "toe slide ratio", with_toes > 0 ? toe_slide / with_toes : kNaN});
   rows.push_back({"pelvis_ground_speed_mps", "pelvis ground speed over 1 s (m/s)", pelvis_ground_speed_mps(motions, 1.0)});
   rows.push_back({"bone_length_rmse_cm", "bone-length RMSE (cm)", bone_count > 0 ? std::sqrt(bone_sq / bone_count) * 100 : 0.0});
   for (const auto& name : part_order) {

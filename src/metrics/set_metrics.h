@@ -13,6 +13,7 @@ namespace mosyn::eval {
 struct SetMetricsOptions {
   FootstepOptions footsteps;
   FootSkatingOptions skating;
+  ToeSlideOptions toe_slide;
   std::vector<std::string> foot_joints;  // overrides for find_foot_joints (empty: by name)
 };
 
@@ -25,7 +26,8 @@ struct MetricValue {
 
 // Rows, in this order: motions, frames, footsteps (max f_est), v_tol95 (cm/s), steps at v_tol95,
 // step duration mean and std (s), contacts per foot per s and their mean (s) at the fixed
-// tolerance, foot skating ratio (mean over motions), the pelvis' ground speed over 1-s spans (m/s,
+// tolerance, foot skating ratio (mean over motions), toe slide ratio (mean over the motions with
+// toe joints; NaN without any), the pelvis' ground speed over 1-s spans (m/s,
 // spans pooled over motions: pelvis_ground_speed_mps), bone-length RMSE (cm,
 // over all frames pooled), deformation of each default rigid part (mm, mean over motions that have
 // it), APD (m; whole sequences, motions cut to the shortest, needs >= 2 motions with the same

@@ -283,8 +283,9 @@ TEST_F(EvaluateTest, PerContentRowsAgainstClipsOfThatContent) {
     const std::string name = info.content_labels.at(static_cast<size_t>(content));
     for (const auto& m : eval::set_metrics(real)) {
       const std::string key = "locomotion." + name + "." + m.key;
-      if (m.key.rfind("footsteps.", 0) != 0 && m.key != "foot_skating_ratio" && m.key != "pelvis_ground_speed_mps") {
-        EXPECT_THROW(result_->row(key), Error) << key;  // only footsteps, skating and pelvis speed per content
+      if (m.key.rfind("footsteps.", 0) != 0 && m.key != "foot_skating_ratio" && m.key != "toe_slide_ratio" &&
+          m.key != "pelvis_ground_speed_mps") {
+        EXPECT_THROW(result_->row(key), Error) << key;  // only footsteps, skating, toe slide and pelvis speed per content
         continue;
       }
       const double v = result_->row(key).real;

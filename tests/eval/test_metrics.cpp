@@ -141,6 +141,41 @@ TEST(FootSkatingTest, SlidingFootAtKnownSpeed) {
   EXPECT_DOUBLE_EQ(foot_skating_ratio(two_feet(both, both, fps), f), 1.0);
 }
 
+// Toe sliding by hand (the independent check's rule): 21 frames at 10 fps. The left toe slides at
+// 0.5 m/s over transitions 0->1 .. 4->5, stands, and swings at 1 m/s lifted 5 cm from frame 10 on
+// (not counted: it is off its floor); the right toe creeps at 5 cm/s (under the 10 cm/s bar), slides
+// at 0.2 m/s over 12->13 and 13->14, and has one stray frame 50 cm under its floor (frame 15), which
+// the 5th-percentile floor ignores and the lowest point does not.
+TEST(FootSkatingTest, ToeSlideRatioByHand) {
+  const double fps = 10;
+  const int frames = 21;
+  std::vector<double> left(frames - 1, 0.0), right(frames - 1, 0.05);
+  for (int t = 0; t < 5; ++t) left[t] = 0.5;
+  for (int t = 10; t < frames - 1; ++t) left[t] = 1.0;
+  right[12] = right[13] = 0.2;
+  std::vector<double> left_y(frames, 0.0);
+  for (int t = 10; t < frames; ++t) left_y[t] = 0.05;
+  MotionPositions m = two_feet(integrate(left, fps), integrate(right, fps), fps, left_y);
+  m.positions_m[15 * 3 + 2].y() = -0.5;
+  FootJoints toes;
+  toes.left_toe = 1;
+  toes.right_toe = 2;
+  EXPECT_NEAR(toe_slide_ratio(m, toes), 7.0 / 20, 1e-12);
+  ToeSlideOptions o;
+  o.floor_percentile = 0;  // the lowest point: the right toe's floor drops to -0.5 m
+  EXPECT_NEAR(toe_slide_ratio(m, toes, o), 5.0 / 20, 1e-12);
+  o = {};
+  o.speed_threshold_mps = 0.6;
+  EXPECT_DOUBLE_EQ(toe_slide_ratio(m, toes, o), 0.0);
+  EXPECT_TRUE(std::isnan(toe_slide_ratio(m, find_foot_joints(m))));  // Foot_L / Foot_R: heels, no toes
+  o = {};
+  o.floor_percentile = 101;
+  EXPECT_THROW(toe_slide_ratio(m, toes, o), mosyn::Error);
+  o = {};
+  o.height_threshold_m = 0;
+  EXPECT_THROW(toe_slide_ratio(m, toes, o), mosyn::Error);
+}
+
 // The slower heel's speed: a walk alternates the planted foot, so it stays at zero; a glide moves
 // both, so it is the slower one's speed.
 TEST(FootSkatingTest, SlowerFootSpeedByHand) {

@@ -35,6 +35,16 @@ TEST(MetricsRealDataTest, BandaiNamcoWalk) {
   EXPECT_LE(a.v_tol95_mps, 0.15);
   EXPECT_GT(a.step_duration_mean_s, 0.15);
   EXPECT_LT(a.step_duration_mean_s, 0.8);
+  // The independent check's toe sliding: about a tenth of a real walk's frames (a toe rolling off
+  // at push-off); the same walk dragged along at 0.3 m/s slides on most of them.
+  const double toes = toe_slide_ratio(m, f);
+  EXPECT_GT(toes, 0.02);
+  EXPECT_LT(toes, 0.2);
+  MotionPositions dragged = m;
+  for (int t = 0; t < m.num_frames; ++t)
+    for (int j = 0; j < m.num_joints; ++j)
+      dragged.positions_m[static_cast<size_t>(t) * m.num_joints + j].x() += 0.3 * t / m.fps;
+  EXPECT_GT(toe_slide_ratio(dragged, f), 0.6);
 }
 
 TEST(MetricsRealDataTest, CmuWalk) {
