@@ -92,6 +92,7 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
   if (given("--threads")) o.threads = flags.threads;
   if (given("--device")) o.device = flags.device;
   if (given("--checkpoint-every")) o.checkpoint_every = flags.checkpoint_every;
+  if (given("--keep-checkpoints")) o.keep_checkpoints = true;
   if (given("--validate-every")) o.validate_every = flags.validate_every;
   if (given("--init-from")) o.init_from = flags.init_from;
   o.resume = flags.resume;
@@ -345,6 +346,8 @@ void add_train_command(CLI::App& app, Action* action) {
   train->add_option("--threads", o.threads, "CPU threads (default: all cores)");
   train->add_option("--device", o.device, "cpu or cuda")->capture_default_str();
   train->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints")->capture_default_str();
+  train->add_flag("--keep-checkpoints", o.keep_checkpoints,
+                  "also keep every checkpoint as checkpoint-STEP.pt, to export or average any of them later");
   train->add_option("--validate-every", o.validate_every, "steps between validations")->capture_default_str();
   train->add_flag("--resume", o.resume, "continue the run in --out exactly where it stopped");
   train->add_option("--init-from", o.init_from,

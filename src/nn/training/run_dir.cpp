@@ -4,9 +4,11 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <vector>
 
 #include "core/error.h"
 #include "io/atomic_file.h"
@@ -24,6 +26,20 @@ RunPaths::RunPaths(const fs::path& d)
       checkpoint((d / "checkpoint.pt").string()),
       best((d / "best.pt").string()),
       log((d / "log.jsonl").string()) {}
+
+std::string RunPaths::kept_checkpoint(int step) const {
+  return (dir / ("checkpoint-" + std::to_string(step) + ".pt")).string();
+}
+
+bool RunPaths::is_kept_checkpoint(const std::string& filename) {
+  const std::string prefix = "checkpoint-", suffix = ".pt";
+  if (filename.size() <= prefix.size() + suffix.size() || filename.rfind(prefix, 0) != 0 ||
+      filename.compare(filename.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
+  for (size_t i = prefix.size(); i < filename.size() - suffix.size(); ++i)
+    if (!std::isdigit(static_cast<unsigned char>(filename[i]))) return false;
+  return true;
+}
 
 RunLock::RunLock(const fs::path& dir) {
   const std::string path = (dir / ".lock").string();
@@ -88,6 +104,10 @@ void clear_run(const RunPaths& paths, bool resume, bool existed) {
   } else if (existed) {
     for (const char* f : {"config.json", "stats.json", "checkpoint.pt", "best.pt", "log.jsonl"})
       fs::remove(paths.dir / f);
+    std::vector<fs::path> kept;  // collected first: removing while iterating is unspecified
+    for (const auto& entry : fs::directory_iterator(paths.dir))
+      if (RunPaths::is_kept_checkpoint(entry.path().filename().string())) kept.push_back(entry.path());
+    for (const auto& path : kept) fs::remove(path);
   }
 }
 

@@ -16,6 +16,10 @@ struct RunPaths {
   explicit RunPaths(const std::filesystem::path& dir);
   std::filesystem::path dir;
   std::string config, stats, checkpoint, best, log;
+  // checkpoint-<step>.pt, a kept checkpoint (TrainOptions::keep_checkpoints).
+  std::string kept_checkpoint(int step) const;
+  // Whether a file name is a kept checkpoint's (checkpoint-<digits>.pt).
+  static bool is_kept_checkpoint(const std::string& filename);
 };
 
 // One writer per run directory: an exclusive advisory lock on RUN/.lock held while training. The

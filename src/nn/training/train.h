@@ -11,6 +11,7 @@
 //                  validation loss (LibTorch archive)
 //   best.pt        the same at the step with the lowest validation loss so far (of the latest
 //                  stage reached: losses of different stages need not be comparable)
+//   checkpoint-<step>.pt  with TrainOptions::keep_checkpoints, every checkpoint.pt as written
 //   log.jsonl      one JSON object per logged step: {"step", "loss", "lr", "time_s", metrics...}
 //                  and, at validation steps, "val_loss" and the mean of each other term as
 //                  "val_<term>"; runs of several stages add "stage" (name)
@@ -94,6 +95,11 @@ struct TrainOptions {
   std::string init_from;
   bool overwrite = false;         // replace an existing run in out_dir
   int checkpoint_every = 500;     // steps between checkpoints (the last step always checkpoints)
+  // Also keep every checkpoint as checkpoint-<step>.pt beside checkpoint.pt (the same state), for
+  // choosing among steps afterwards (`mosyn export --checkpoint checkpoint-300.pt`, `--average`):
+  // continued training can pass its best point within a few hundred steps (models/moglow-lookahead,
+  // sessions 39-40). --overwrite removes a run's kept checkpoints with the rest.
+  bool keep_checkpoints = false;
   int validate_every = 500;       // steps between validations (and at the last step); 0 = never
   int val_windows = 256;          // size of the fixed validation subset (evenly spread windows)
   int log_every = 10;             // steps between progress reports and log lines

@@ -32,6 +32,7 @@ nlohmann::json TrainOptions::to_json() const {
           {"init_from", init_from}};
   // Written only when set, so configs of runs made before the option stay as they were.
   if (!label_weights.empty()) j["label_weights"] = label_weights;
+  if (keep_checkpoints) j["keep_checkpoints"] = true;
   return j;
 }
 
@@ -60,6 +61,7 @@ TrainOptions TrainOptions::from_json(const nlohmann::json& j) {
       else if (k == "resume") o.resume = v.get<bool>();
       else if (k == "overwrite") o.overwrite = v.get<bool>();
       else if (k == "checkpoint_every") o.checkpoint_every = io::json_get<int>(v);
+      else if (k == "keep_checkpoints") o.keep_checkpoints = v.get<bool>();
       else if (k == "validate_every") o.validate_every = io::json_get<int>(v);
       else if (k == "val_windows") o.val_windows = io::json_get<int>(v);
       else if (k == "log_every") o.log_every = io::json_get<int>(v);

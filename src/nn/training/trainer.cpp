@@ -545,7 +545,10 @@ void Trainer::after_step(const LossTerms& terms, double loss, double lr, bool st
   }
   if (!leader()) return;
   if (step_ % opts_.log_every == 0 || do_val || stage_end) report(terms, loss, lr, val, do_val && std::isfinite(val));
-  if (step_ % opts_.checkpoint_every == 0 || stage_end) save(paths_.checkpoint);
+  if (step_ % opts_.checkpoint_every == 0 || stage_end) {
+    save(paths_.checkpoint);
+    if (opts_.keep_checkpoints) save(paths_.kept_checkpoint(step_));
+  }
 }
 
 void Trainer::report(const LossTerms& terms, double loss, double lr, double val, bool has_val) {
