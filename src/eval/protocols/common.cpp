@@ -216,7 +216,8 @@ int label_index(const std::vector<std::string>& labels, const std::string& name)
 }
 
 bool is_gait_row(const std::string& key) {
-  return key.rfind("footsteps.", 0) == 0 || key == "foot_skating_ratio" || key == "toe_slide_ratio" || key == "pelvis_ground_speed_mps";
+  return key.rfind("footsteps.", 0) == 0 || key == "foot_skating_ratio" || key == "toe_slide_ratio" ||
+         key == "pelvis_ground_speed_mps";
 }
 
 }  // namespace mosyn::eval::detail

@@ -413,8 +413,8 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
     // mean pose is no frame of the motion. Step s (draw s -> s + 1) is the root's step into draw s + 1.
     auto steps = valid.defined() ? drawn_valid.narrow(1, 1, n - 1) : valid;
     if (options_.toe_slide_below_root_mps > 0) {
-      const auto slow = (sequence(speeds.root_mps, n).squeeze(-1).narrow(1, 1, n - 1) < options_.toe_slide_below_root_mps)
-                            .to(seen.dtype());
+      const auto step_root_mps = sequence(speeds.root_mps, n).squeeze(-1).narrow(1, 1, n - 1);  // [B, n - 1]
+      const auto slow = (step_root_mps < options_.toe_slide_below_root_mps).to(seen.dtype());
       steps = steps.defined() ? steps * slow : slow;
     }
     out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(made, real_drawn, batch.control.narrow(1, tau, n), steps);

@@ -23,6 +23,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "io/atomic_file.h"
 #include "io/json_file.h"
 #include "io/json_number.h"
 #include "nn/checkpoint.h"
@@ -547,7 +548,9 @@ void Trainer::after_step(const LossTerms& terms, double loss, double lr, bool st
   if (step_ % opts_.log_every == 0 || do_val || stage_end) report(terms, loss, lr, val, do_val && std::isfinite(val));
   if (step_ % opts_.checkpoint_every == 0 || stage_end) {
     save(paths_.checkpoint);
-    if (opts_.keep_checkpoints) save(paths_.kept_checkpoint(step_));
+    // The same bytes, not a second serialisation of the model and optimiser.
+    if (opts_.keep_checkpoints)
+      io::write_file_atomically(paths_.kept_checkpoint(step_), io::read_file(paths_.checkpoint));
   }
 }
 
