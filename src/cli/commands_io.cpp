@@ -76,9 +76,9 @@ void write_control_of(const ConvertOptions& o, const Clip& clip) {
   const std::vector<float> control = data::control_from_clip(clip, clip.motion.fps);
   std::vector<Eigen::Vector3d> rows(control.size() / 3);
   for (size_t t = 0; t < rows.size(); ++t) rows[t] = {control[3 * t], control[3 * t + 1], control[3 * t + 2]};
-  io::write_control_csv(o.output, rows);
-  std::fprintf(stderr, "wrote %s: %zu frames of dx, dz (m) and dtheta (rad) at %g fps\n", o.output.c_str(), rows.size(),
-               clip.motion.fps);
+  io::write_control_csv(o.output, rows, clip.motion.fps);
+  std::fprintf(stderr, "wrote %s: %zu frames of t_s, dx, dz (m) and dtheta (rad) at %g fps\n", o.output.c_str(),
+               rows.size(), clip.motion.fps);
 }
 
 void write_gltf_of(const ConvertOptions& o, const Clip& clip) {

@@ -161,6 +161,7 @@ struct SampleArgs {
   double temperature = 1.0;
   bool positions = false;
   std::string path, control_file, data_dir, split = "val", checkpoint = "checkpoint.pt", prefix = "sample";
+  double control_fps = 0;  // frame rate of a CSV --control without times (0: the run's)
   int clip = -1;
   double speed_mps = 1.3;
   double warmup_s = -1.0;  // < 0: the family's default
@@ -178,6 +179,7 @@ nn::SampleJobOptions job_options(const SampleArgs& a) {
   o.path = a.path;
   o.speed_mps = a.speed_mps;
   o.control_file = a.control_file;
+  o.control_fps = a.control_fps;
   o.data_dir = a.data_dir;
   o.split = a.split;
   o.clip = a.clip;
@@ -378,7 +380,11 @@ void add_sample_command(CLI::App& app, Action* action) {
                      "ground path 'x,z x,z ...' in metres (a third number 'x,z,s' stands s seconds there; "
                      "one point stands still); default '0,0 0,4 3,7'");
   sample->add_option("--speed", s->speed_mps, "walking speed along --path, m/s")->capture_default_str();
-  sample->add_option("--control", s->control_file, "BVH whose root motion is reused, or CSV of dx,dz,dtheta per frame");
+  sample->add_option("--control", s->control_file,
+                     "BVH whose root motion is reused, or CSV of dx,dz,dtheta per frame (with a t_s column of "
+                     "frame times it is resampled to the model's rate; `mosyn convert --control` writes one)");
+  sample->add_option("--control-fps", s->control_fps,
+                     "frame rate of a CSV --control without a t_s column (default: the model's)");
   sample->add_option("--data", s->data_dir, "take the control of a dataset clip (with --clip, --split)");
   sample->add_option("--split", s->split, "dataset split for --data")->capture_default_str();
   sample->add_option("--clip", s->clip, "clip index in the split for --data");

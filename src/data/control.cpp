@@ -247,14 +247,44 @@ std::vector<float> control_from_clip(const Clip& clip_in, double fps, double* st
   return control;
 }
 
-std::vector<float> control_from_csv(const std::string& path) {
-  const std::vector<Eigen::Vector3d> rows = io::read_control_csv(path);
+std::vector<float> control_from_csv(const std::string& path, double fps, double csv_fps) {
+  if (!(fps > 0) || csv_fps < 0) throw Error(path + ": the control's frame rates must be positive");
+  std::vector<double> times_s;
+  const std::vector<Eigen::Vector3d> rows = io::read_control_csv(path, &times_s);
   if (rows.size() < 2) throw Error(path + ": a control needs at least 2 frames");
+  if (!times_s.empty() && csv_fps > 0)
+    throw Error(path + ": the file gives its frame times (t_s column); a frame rate for it applies only to files without");
   std::vector<float> control;
   control.reserve(rows.size() * 3);
   for (const auto& r : rows)
     for (int k = 0; k < 3; ++k) control.push_back(static_cast<float>(r[k]));
-  return control;
+  if (times_s.empty() && csv_fps > 0)
+    for (size_t t = 0; t < rows.size(); ++t) times_s.push_back(static_cast<double>(t) / csv_fps);
+  return times_s.empty() ? control : resample_control(control, times_s, fps);
+}
+
+std::vector<float> resample_control(const std::vector<float>& control, const std::vector<double>& times_s, double fps) {
+  const size_t n = times_s.size();
+  if (control.size() != 3 * n) throw Error("resample_control: one time per control frame [T, 3] needed");
+  if (n < 2) throw Error("resample_control: at least 2 frames needed");
+  if (!(fps > 0)) throw Error("resample_control: fps must be positive");
+  for (size_t t = 1; t < n; ++t)
+    if (!(times_s[t] > times_s[t - 1])) throw Error("resample_control: the times must increase");
+  std::vector<double> headings;
+  const std::vector<Eigen::Vector3d> points = integrate_control(control, 0.0, &headings);
+  const size_t frames = static_cast<size_t>(std::floor((times_s.back() - times_s.front()) * fps + 1e-6)) + 1;
+  std::vector<Eigen::Vector2d> positions(frames);
+  std::vector<double> new_headings(frames);
+  size_t i = 0;  // times_s[i] <= time < times_s[i + 1]
+  for (size_t k = 0; k < frames; ++k) {
+    const double time = std::min(times_s.front() + static_cast<double>(k) / fps, times_s.back());
+    while (i + 2 < n && times_s[i + 1] <= time) ++i;
+    const double w = std::clamp((time - times_s[i]) / (times_s[i + 1] - times_s[i]), 0.0, 1.0);
+    const Eigen::Vector3d p = (1 - w) * points[i] + w * points[i + 1];
+    positions[k] = {p.x(), p.z()};
+    new_headings[k] = (1 - w) * headings[i] + w * headings[i + 1];
+  }
+  return deltas_from_ground(positions, new_headings);
 }
 
 std::vector<float> smooth_control(const std::vector<float>& control, double fps, double sigma_s) {

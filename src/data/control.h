@@ -46,8 +46,19 @@ std::vector<float> control_from_path(const std::vector<Waypoint>& path, const Pa
 // guessed when it is 1 and the body is clearly not in metres), resampled to fps.
 std::vector<float> control_from_clip(const Clip& clip, double fps, double* start_heading_rad = nullptr);
 
-// Control [T, 3] from a CSV with columns dx, dz, dtheta (io/csv.h read_control_csv).
-std::vector<float> control_from_csv(const std::string& path);
+// Control [T, 3] at fps from a CSV with columns dx, dz, dtheta (io/csv.h read_control_csv). A file
+// with a t_s column is resampled by its times (resample_control); one without is taken to hold
+// frames at csv_fps and resampled from it, or, when csv_fps is 0, frames at fps already. Throws
+// mosyn::Error naming the file for fewer than 2 frames, or for csv_fps > 0 on a file that has times.
+std::vector<float> control_from_csv(const std::string& path, double fps, double csv_fps = 0.0);
+
+// The control [T, 3] whose frame t lies at times_s[t] (seconds, increasing), at fps: integrated to
+// its ground path (integrate_control, heading 0), the positions and unwrapped headings interpolated
+// linearly at times_s[0] + k / fps for every k that stays within times_s.back() (plus 1e-6 s), and
+// differentiated again, so the path passes through the same points at the same times. Equal times
+// and rate return the control (to float rounding). Throws mosyn::Error for a size mismatch, fewer
+// than 2 frames, times that do not increase, or fps <= 0.
+std::vector<float> resample_control(const std::vector<float>& control, const std::vector<double>& times_s, double fps);
 
 // The control re-shaped like the controls of a dataset prepared with root smoothing sigma_s
 // (seconds; FeatureLayout::root_smoothing_s): integrated to a ground trajectory, Gaussian-filtered

@@ -180,7 +180,8 @@ void write_numeric_csv(const std::string& path, const CsvTable& table) {
   write_file_atomically(path, format_numeric_csv(table));
 }
 
-std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const std::string& file) {
+std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const std::string& file,
+                                               std::vector<double>* times_s) {
   const CsvTable table = parse_numeric_csv(text, file);
   int columns[3];
   const char* names[3][2] = {{"dx", "dx_m"}, {"dz", "dz_m"}, {"dtheta", "dtheta_rad"}};
@@ -192,20 +193,38 @@ std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const st
                        std::string("control CSV has no '") + names[k][0] + "' (or '" + names[k][1] +
                            "') column; expected a header like dx,dz,dtheta");
   }
+  const int time_column = table.column("t_s") >= 0 ? table.column("t_s") : table.column("time_s");
   std::vector<Eigen::Vector3d> controls;
   controls.reserve(table.rows.size());
-  for (const std::vector<double>& row : table.rows)
+  if (times_s) times_s->clear();
+  for (size_t i = 0; i < table.rows.size(); ++i) {
+    const std::vector<double>& row = table.rows[i];
     controls.emplace_back(row[static_cast<size_t>(columns[0])], row[static_cast<size_t>(columns[1])],
                           row[static_cast<size_t>(columns[2])]);
+    if (time_column < 0) continue;
+    const double t = row[static_cast<size_t>(time_column)];
+    if (i > 0 && !(t > table.rows[i - 1][static_cast<size_t>(time_column)]))
+      throw ParseError(file, table.row_lines[i], "the times (t_s) must increase from row to row");
+    if (times_s) times_s->push_back(t);
+  }
   return controls;
 }
 
-std::vector<Eigen::Vector3d> read_control_csv(const std::string& path) { return parse_control_csv(read_file(path), path); }
+std::vector<Eigen::Vector3d> read_control_csv(const std::string& path, std::vector<double>* times_s) {
+  return parse_control_csv(read_file(path), path, times_s);
+}
 
-void write_control_csv(const std::string& path, const std::vector<Eigen::Vector3d>& controls) {
+void write_control_csv(const std::string& path, const std::vector<Eigen::Vector3d>& controls, double fps) {
   CsvTable table;
   table.header = {"dx", "dz", "dtheta"};
-  for (const Eigen::Vector3d& c : controls) table.rows.push_back({c[0], c[1], c[2]});
+  if (fps > 0) table.header.insert(table.header.begin(), "t_s");
+  for (size_t t = 0; t < controls.size(); ++t) {
+    const Eigen::Vector3d& c = controls[t];
+    if (fps > 0)
+      table.rows.push_back({static_cast<double>(t) / fps, c[0], c[1], c[2]});
+    else
+      table.rows.push_back({c[0], c[1], c[2]});
+  }
   write_numeric_csv(path, table);
 }
 

@@ -49,10 +49,16 @@ void write_numeric_csv(const std::string& path, const CsvTable& table);
 // displacement since the previous frame in the character's heading frame, and heading change in
 // radians (see core/trajectory.h; the data layer uses metres). The columns are found by name:
 // "dx" or "dx_m", "dz" or "dz_m", "dtheta" or "dtheta_rad", in any order; other columns are
-// ignored. Throws ParseError when a column is missing (line 1 of the header) or a value is bad.
-std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const std::string& file_name_for_errors);
-std::vector<Eigen::Vector3d> read_control_csv(const std::string& path);
-// Writes controls with the header "dx,dz,dtheta".
-void write_control_csv(const std::string& path, const std::vector<Eigen::Vector3d>& controls);
+// ignored. An optional "t_s" (or "time_s") column gives each frame's time in seconds, so the file
+// says its own frame rate (a 30-fps take's control read by a 20-fps model walks at the take's speed,
+// not two thirds of it); times_s, when given, receives it ([T], empty when the file has none).
+// Throws ParseError when a column is missing (line 1 of the header), a value is bad, or the times
+// do not increase (the line of the first that does not).
+std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const std::string& file_name_for_errors,
+                                               std::vector<double>* times_s = nullptr);
+std::vector<Eigen::Vector3d> read_control_csv(const std::string& path, std::vector<double>* times_s = nullptr);
+// Writes controls with the header "dx,dz,dtheta", or "t_s,dx,dz,dtheta" (frame t at t / fps seconds)
+// when fps > 0.
+void write_control_csv(const std::string& path, const std::vector<Eigen::Vector3d>& controls, double fps = 0.0);
 
 }  // namespace mosyn::io

@@ -25,6 +25,9 @@ void check_ranges(const SampleJobOptions& o) {
   if (!(o.observed_s > 0) || o.observed_s > 3600) throw InvalidArgument("--observed must be in (0, 3600] seconds");
   if (o.observed_frames == 0 || o.observed_frames < -1) throw InvalidArgument("--observed-frames must be >= 1");
   if (o.warmup_s > 60) throw InvalidArgument("--warmup must be at most 60 seconds");
+  if (!(o.control_fps >= 0 && o.control_fps <= 10000)) throw InvalidArgument("--control-fps must be in (0, 10000]");
+  if (o.control_fps > 0 && io::extension_of(o.control_file) != "csv")
+    throw InvalidArgument("--control-fps is the frame rate of a CSV --control (a BVH gives its own)");
 }
 
 // continue_file's observed frames as the plan's prefix; returns the rest of its root motion.
@@ -59,7 +62,7 @@ std::vector<float> given_control(const LoadedRun& run, const SampleJobOptions& o
   if (!o.control_file.empty()) {
     double heading = 0;
     if (io::extension_of(o.control_file) == "csv")
-      control = data::control_from_csv(o.control_file);
+      control = data::control_from_csv(o.control_file, fps, o.control_fps);
     else
       control = data::control_from_clip(io::to_clip(io::read_bvh(o.control_file)), fps, &heading);
     if (o.continue_file.empty()) plan.start_heading_rad = heading;

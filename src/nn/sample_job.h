@@ -25,6 +25,7 @@ struct SampleJobOptions {
   std::string path;                  // ground path "x,z x,z,s ..." in metres (data/control.h parse_path)
   double speed_mps = 1.3;            // walking speed along `path`
   std::string control_file;          // BVH whose root motion is reused, or CSV of dx,dz,dtheta per frame
+  double control_fps = 0;            // frame rate of a CSV control_file without a t_s column (0 = the run's)
   std::string data_dir;              // a prepared dataset: the control of one of its clips
   std::string split = "val";         // with data_dir
   int clip = -1;                     // with data_dir: index in the split

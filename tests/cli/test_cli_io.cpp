@@ -113,14 +113,14 @@ TEST(CliTest, ConvertJointSubsetKeepsTheRoot) {
 }
 
 // The root control written as CSV is what `data::control_from_clip` computes, and reads back as
-// the same numbers (`sample --control file.csv` uses it).
+// the same numbers at the file's 30 fps (`sample --control file.csv` uses it).
 TEST(CliTest, ConvertWritesTheRootControlAsCsv) {
   const auto dir = fresh_dir("control");
   const std::string in = write_walk_bvh(dir), csv = (dir / "walk_control.csv").string();
   const auto r = run_mosyn("convert " + in + " " + csv + " --control");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::vector<float> expected = data::control_from_clip(io::to_clip(io::read_bvh(in)), 30.0);
-  const std::vector<float> got = data::control_from_csv(csv);
+  const std::vector<float> got = data::control_from_csv(csv, 30.0);
   ASSERT_EQ(got.size(), expected.size());
   for (size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i], expected[i], 1e-6) << i;
   EXPECT_EQ(run_mosyn("convert " + in + " " + (dir / "c.npy").string() + " --control").exit_code, 2);

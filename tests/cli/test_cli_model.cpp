@@ -124,6 +124,25 @@ TEST_F(CliModelTest, SampleFollowsAControlBvh) {
   EXPECT_EQ(io::read_bvh(*root_ + "/ctl/sample_000.bvh").num_frames, 90);
 }
 
+// A control CSV says its own frame rate (t_s column): written at 15 fps from the same take, it gives
+// the BVH control's duration at the run's 30 fps (89 frames for the 44 / 15 s it spans; read as
+// frames at 30 fps it would have lasted half as long). --control-fps gives the rate of a CSV without
+// times and applies to nothing else.
+TEST_F(CliModelTest, SampleReadsAControlCsvAtItsOwnFrameRate) {
+  const std::string bvh = *root_ + "/source/data/dataset-9_walk_normal_001.bvh", csv = *root_ + "/ctl15.csv";
+  const auto c = run_mosyn("convert " + bvh + " " + csv + " --fps 15 --control");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_EQ(slurp(csv).substr(0, 17), "t_s,dx,dz,dtheta\n");
+  const auto r = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/ctl15 --n 1 --threads 1 --control " + csv);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(io::read_bvh(*root_ + "/ctl15/sample_000.bvh").num_frames, 89);
+  const auto both = run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/ctl15b --control " + csv + " --control-fps 15");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_THAT(both.err, HasSubstr(csv));
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --control " + bvh + " --control-fps 15").exit_code, 2);
+  EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --control " + csv + " --control-fps -1").exit_code, 2);
+}
+
 TEST_F(CliModelTest, SampleErrors) {
   EXPECT_EQ(run_mosyn("sample /nonexistent/run --out " + *root_ + "/e").exit_code, 1);
   EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --path 'a,b'").exit_code, 2);

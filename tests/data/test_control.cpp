@@ -2,11 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "core/synthetic.h"
 #include "core/trajectory.h"
 #include "data/control.h"
+#include "io/csv.h"
 
 namespace mosyn::data {
 namespace {
@@ -109,6 +112,67 @@ TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
     EXPECT_NEAR(path[t].x(), expected.x(), 1e-5) << t;
     EXPECT_NEAR(path[t].z(), expected.z(), 1e-5) << t;
   }
+}
+
+// The control of a turning walk at 30 fps, resampled to 20 fps, traces the same path: at the times
+// both grids share (every 0.1 s) the re-integrated positions and headings agree; per frame the
+// steps are 1.5 times as long, so the speed in m/s is the same.
+TEST(ControlTest, ResampledControlTracesTheSamePathInTheSameTime) {
+  Clip clip;
+  clip.skeleton = make_synthetic_biped();
+  SyntheticWalkOptions walk;
+  walk.turn_rate_rad_s = 0.6;
+  clip.motion = make_synthetic_walk(clip.skeleton, 91, 30.0, walk);
+  const std::vector<float> at30 = control_from_clip(clip, 30.0);
+  std::vector<double> times30;
+  for (int t = 0; t < 91; ++t) times30.push_back(t / 30.0);
+  const std::vector<float> at20 = resample_control(at30, times30, 20.0);
+  ASSERT_EQ(at20.size(), 3u * 61);  // 3 s at 20 fps, both ends included
+  std::vector<double> h30, h20;
+  const auto p30 = integrate_control(at30, 0.0, &h30), p20 = integrate_control(at20, 0.0, &h20);
+  for (int k = 0; k <= 30; ++k) {
+    EXPECT_LT((p20[2 * k] - p30[3 * k]).norm(), 1e-5) << k;
+    EXPECT_NEAR(h20[2 * k], h30[3 * k], 1e-6) << k;
+  }
+  double forward30 = 0, forward20 = 0;
+  for (int t = 1; t < 91; ++t) forward30 += at30[3 * t + 1];
+  for (int t = 1; t < 61; ++t) forward20 += at20[3 * t + 1];
+  EXPECT_NEAR(forward20 / 60, 1.5 * forward30 / 90, 0.02 * forward30 / 90);
+  // The same times and rate give the control back.
+  const std::vector<float> again = resample_control(at30, times30, 30.0);
+  ASSERT_EQ(again.size(), at30.size());
+  for (size_t i = 0; i < at30.size(); ++i) EXPECT_NEAR(again[i], at30[i], 1e-6) << i;
+  EXPECT_THROW(resample_control(at30, {0.0, 1.0}, 20.0), Error);
+  std::vector<double> stalled = times30;
+  stalled[5] = stalled[4];
+  EXPECT_THROW(resample_control(at30, stalled, 20.0), Error);
+  EXPECT_THROW(resample_control(at30, times30, 0.0), Error);
+}
+
+// A CSV control is read at the model's rate: by its t_s column, by the rate given for a file
+// without one, or as frames at the model's rate when neither is known.
+TEST(ControlTest, CsvControlIsResampledByItsTimesOrGivenRate) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("mosyn_control_csv_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::vector<Eigen::Vector3d> rows;
+  for (int t = 0; t < 31; ++t) rows.emplace_back(0.0, t > 0 ? 0.04 : 0.0, t > 0 ? 0.01 : 0.0);  // 1.2 m/s at 30 fps
+  const std::string timed = (dir / "timed.csv").string(), plain = (dir / "plain.csv").string();
+  io::write_control_csv(timed, rows, 30.0);
+  io::write_control_csv(plain, rows);
+  const std::vector<float> from_times = control_from_csv(timed, 20.0);
+  ASSERT_EQ(from_times.size(), 3u * 21);
+  const std::vector<float> from_rate = control_from_csv(plain, 20.0, 30.0);
+  ASSERT_EQ(from_rate.size(), from_times.size());
+  for (size_t i = 0; i < from_rate.size(); ++i) EXPECT_NEAR(from_rate[i], from_times[i], 1e-6) << i;
+  EXPECT_NEAR(integrate_control(from_times).back().norm(), integrate_control(control_from_csv(plain, 30.0)).back().norm(),
+              1e-5);
+  const std::vector<float> as_is = control_from_csv(plain, 20.0);  // no rate known: frames at 20 fps
+  ASSERT_EQ(as_is.size(), 3u * 31);
+  EXPECT_FLOAT_EQ(as_is[3 * 5 + 1], 0.04f);
+  EXPECT_THROW(control_from_csv(timed, 20.0, 30.0), Error);  // times and a rate: which one?
+  EXPECT_THROW(control_from_csv(plain, 0.0), Error);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

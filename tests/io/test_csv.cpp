@@ -58,6 +58,21 @@ TEST(Csv, ReadsControlsByColumnName) {
   EXPECT_TRUE(parse_control_csv("dx,dz,dtheta\n", "c.csv").empty());
 }
 
+// A t_s column gives the frame times (the file's own rate); they must increase.
+TEST(Csv, ReadsControlFrameTimes) {
+  std::vector<double> times;
+  const auto c = parse_control_csv("t_s,dx,dz,dtheta\n0,0,0,0\n0.05,0.01,0.02,0\n0.1,0,0.02,0.1\n", "c.csv", &times);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(times, (std::vector<double>{0, 0.05, 0.1}));
+  EXPECT_EQ(c[2], Eigen::Vector3d(0, 0.02, 0.1));
+  parse_control_csv("dx,dz,dtheta,time_s\n0,0,0,1\n0,0,0,2\n", "c.csv", &times);
+  EXPECT_EQ(times, (std::vector<double>{1, 2}));
+  parse_control_csv("dx,dz,dtheta\n0,0,0\n", "c.csv", &times);
+  EXPECT_TRUE(times.empty());
+  expect_csv_error("t_s,dx,dz,dtheta\n0,0,0,0\n0.1,0,0,0\n0.1,0,0,0\n", 4, "increase");
+  expect_csv_error("t_s,dx,dz,dtheta\n0.2,0,0,0\n\n0.1,0,0,0\n", 4, "increase");
+}
+
 TEST(Csv, ControlErrorsNameFileAndLine) {
   expect_csv_error("", 0, "empty");
   expect_csv_error("dx,dz\n1,2\n", 1, "'dtheta'");
@@ -100,6 +115,13 @@ TEST(Csv, NumericTableAndControlRoundTrip) {
   ASSERT_EQ(again.size(), 2u);
   for (size_t i = 0; i < 2; ++i) EXPECT_LT((again[i] - controls[i]).norm(), 1e-8);
   EXPECT_THROW(read_control_csv((dir / "missing.csv").string()), Error);
+  // With a frame rate the file carries each frame's time.
+  write_control_csv(cpath, controls, 20.0);
+  EXPECT_EQ(read_file(cpath).substr(0, 17), "t_s,dx,dz,dtheta\n");
+  std::vector<double> times;
+  const std::vector<Eigen::Vector3d> timed = read_control_csv(cpath, &times);
+  EXPECT_EQ(times, (std::vector<double>{0, 0.05}));
+  for (size_t i = 0; i < 2; ++i) EXPECT_LT((timed[i] - controls[i]).norm(), 1e-8);
   fs::remove_all(dir);
 }
 
