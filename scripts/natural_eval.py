@@ -4,7 +4,8 @@
 generated/real ratios. Two settings, as issue "natural motion" asks:
 
   1. along the validation split's own controls: for every held-out original (not mirrored) clip of
-     the given contents, --n samples along its (smoothed) control, against the clips' source BVH;
+     the given contents, --n samples along its (smoothed) control with its own content and style
+     (--style asks for another), against the clips' source BVH;
   2. along synthetic paths drawn as a user would (curve, zigzag, stop-and-go, straight lines at
      0.8-1.8 m/s), against the same real clips.
 
@@ -37,7 +38,7 @@ PATHS = {
 
 
 def val_clips(dataset, contents):
-    """(index in the val split, source, content) of original clips of the given contents."""
+    """(index in the val split, source, content, style) of original clips of the given contents."""
     info = json.load(open(os.path.join(dataset, "dataset.json")))
     labels = info["content_labels"]
     pd, cd = info["layout"]["pose_dim"], info["layout"]["control_dim"]
@@ -50,8 +51,10 @@ def val_clips(dataset, contents):
         content, style, flags, frames = struct.unpack_from("<iiBI", data, off); off += 13
         off += 4 * frames * (pd + cd)
         name = labels[content] if 0 <= content < len(labels) else ""
+        styles = info.get("style_labels", [])
+        style_name = styles[style] if 0 <= style < len(styles) else ""
         if flags == 0 and name in contents:
-            out.append((i, source, name))
+            out.append((i, source, name, style_name))
     return info, out
 
 
@@ -144,12 +147,16 @@ def main():
         clips = [clips[i * len(clips) // a.max_clips] for i in range(a.max_clips)]
     source_dir = info["source_dirs"][0] if info.get("source_dirs") else info["source_dir"]
     real = [os.path.join(source_dir, c[1]) for c in clips]
-    extra = ["--temperature", a.temperature] + (["--style", a.style] if a.style else []) + (["--foot-lock"] if a.foot_lock else []) + (["--warmup", a.warmup] if a.warmup else [])
+    extra = ["--temperature", a.temperature] + (["--foot-lock"] if a.foot_lock else []) + (["--warmup", a.warmup] if a.warmup else [])
+    path_style = ["--style", a.style] if a.style else []
     results = {}
     gen = []
-    for idx, source, content in clips:
+    for idx, source, content, style in clips:
         d = os.path.join(a.out, "val")
-        label = ["--content", content] if takes_labels(a.run) else []
+        # A held-out take's control is walked with the take's own labels (as `mosyn eval` does),
+        # unless --style asks for another style.
+        take_style = a.style or style
+        label = ["--content", content] + (["--style", take_style] if take_style else []) if takes_labels(a.run) else []
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx + a.seed), "--data", a.dataset,
              "--clip", str(idx), "--prefix", f"clip{idx:04d}", "--threads", a.threads] + label + extra)
         gen += [os.path.join(d, f"clip{idx:04d}_{k:03d}.bvh") for k in range(a.n)]
@@ -159,7 +166,7 @@ def main():
         d = os.path.join(a.out, name)
         label = ["--content", "walk"] if takes_labels(a.run) else []
         run([a.mosyn, "sample", a.run, "--out", d, "--n", "4", "--seed", str(7 + a.seed), "--path", path, "--speed", str(speed),
-             "--prefix", name, "--threads", a.threads] + label + extra)
+             "--prefix", name, "--threads", a.threads] + label + path_style + extra)
         files = [os.path.join(d, f"{name}_{k:03d}.bvh") for k in range(4)]
         all_paths += files
         results["path " + name] = check(files, real)

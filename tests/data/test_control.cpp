@@ -94,12 +94,18 @@ TEST(ControlTest, PauseAtStartStandsThenWalks) {
   EXPECT_NEAR(moved, 3.0, 1e-3);
 }
 
-TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
+// A synthetic biped walking `frames` frames at 30 fps, turning at turn_rate_rad_s.
+Clip turning_walk(int frames, double turn_rate_rad_s) {
   Clip clip;
   clip.skeleton = make_synthetic_biped();
   SyntheticWalkOptions walk;
-  walk.turn_rate_rad_s = 0.4;
-  clip.motion = make_synthetic_walk(clip.skeleton, 120, 30.0, walk);
+  walk.turn_rate_rad_s = turn_rate_rad_s;
+  clip.motion = make_synthetic_walk(clip.skeleton, frames, 30.0, walk);
+  return clip;
+}
+
+TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
+  const Clip clip = turning_walk(120, 0.4);
   double heading = 0;
   const auto control = control_from_clip(clip, 30.0, &heading);
   ASSERT_EQ(control.size(), 3u * 120);
@@ -118,12 +124,7 @@ TEST(ControlTest, ClipControlReintegratesToTheRootPath) {
 // both grids share (every 0.1 s) the re-integrated positions and headings agree; per frame the
 // steps are 1.5 times as long, so the speed in m/s is the same.
 TEST(ControlTest, ResampledControlTracesTheSamePathInTheSameTime) {
-  Clip clip;
-  clip.skeleton = make_synthetic_biped();
-  SyntheticWalkOptions walk;
-  walk.turn_rate_rad_s = 0.6;
-  clip.motion = make_synthetic_walk(clip.skeleton, 91, 30.0, walk);
-  const std::vector<float> at30 = control_from_clip(clip, 30.0);
+  const std::vector<float> at30 = control_from_clip(turning_walk(91, 0.6), 30.0);
   std::vector<double> times30;
   for (int t = 0; t < 91; ++t) times30.push_back(t / 30.0);
   const std::vector<float> at20 = resample_control(at30, times30, 20.0);
