@@ -4,13 +4,13 @@
 generated/real ratios. Two settings, as issue "natural motion" asks:
 
   1. along the validation split's own controls: for every held-out original (not mirrored) clip of
-     the given contents, --n samples along its (smoothed) control with its own content and style
-     (--style asks for another), against the clips' source BVH;
+     the given contents, --n samples along its (smoothed) control with its content label (and,
+     with --take-styles, its style, as `mosyn eval` asks), against the clips' source BVH;
   2. along synthetic paths drawn as a user would (curve, zigzag, stop-and-go, straight lines at
      0.8-1.8 m/s), against the same real clips.
 
     scripts/natural_eval.py RUN DATASET --out DIR [--contents walk] [--n 2] [--max-clips 30]
-        [--mosyn build/mosyn] [--style S] [--temperature T] [--warmup S] [--seed K] [--foot-lock] [--json OUT.json]
+        [--mosyn build/mosyn] [--style S | --take-styles] [--temperature T] [--warmup S] [--seed K] [--foot-lock] [--json OUT.json]
 
 With the default 2 samples a take (28 motions for the 14 held-out walks) the step ratio scatters
 by about 0.15 from one --seed to the next on the same weights (recurrent VAE run 20: 0.98, 0.72,
@@ -135,6 +135,7 @@ def main():
     ap.add_argument("--max-clips", type=int, default=30)
     ap.add_argument("--mosyn", default=os.path.join(HERE, "..", "build", "mosyn"))
     ap.add_argument("--style", default="")
+    ap.add_argument("--take-styles", action="store_true", help="walk each held-out take's control in the take's own style")
     ap.add_argument("--foot-lock", action="store_true")
     ap.add_argument("--json", default="")
     ap.add_argument("--threads", default="1")
@@ -153,9 +154,9 @@ def main():
     gen = []
     for idx, source, content, style in clips:
         d = os.path.join(a.out, "val")
-        # A held-out take's control is walked with the take's own labels (as `mosyn eval` does),
-        # unless --style asks for another style.
-        take_style = a.style or style
+        # The check compares sets of one content; --take-styles pairs each take with its own style
+        # too (as `mosyn eval` does), --style asks every sample for one style.
+        take_style = a.style or (style if a.take_styles else "")
         label = ["--content", content] + (["--style", take_style] if take_style else []) if takes_labels(a.run) else []
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx + a.seed), "--data", a.dataset,
              "--clip", str(idx), "--prefix", f"clip{idx:04d}", "--threads", a.threads] + label + extra)
@@ -185,7 +186,7 @@ def main():
         slides = {name: dict(bands_mps=list(SPEED_BANDS_MPS[:-1]), sliding=[c[0] for c in counts], steps=[c[1] for c in counts])
                   for name, counts in split}
         json.dump(dict(run=a.run, dataset=a.dataset, clips=[c[1] for c in clips], n=a.n, paths=PATHS,
-                       foot_lock=a.foot_lock, style=a.style, results=results, toe_slides_by_pelvis_speed=slides),
+                       foot_lock=a.foot_lock, style=a.style, take_styles=a.take_styles, results=results, toe_slides_by_pelvis_speed=slides),
                   open(a.json, "w"), indent=1)
 
 

@@ -514,6 +514,35 @@ TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
   }
 }
 
+// The toe-slide term (toe_slide_weight): the excess of the reconstructed toes' sliding over the
+// data's, reported in every loss and added only in training; written to the config; refused
+// without toes.
+TEST(Rvae, ToeSlideTermOnlyInTrainingAndNeedsToes) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::positions_context(s);
+  const Batch batch = nn::testing::standing_batch(s, ctx, 32);
+  nlohmann::json cfg = tiny_config();
+  cfg["toe_slide_weight"] = 3.0;
+  auto m = create_model("rvae", cfg, ctx);
+  EXPECT_DOUBLE_EQ(m->config().at("toe_slide_weight").get<double>(), 3.0);
+  auto loss_in = [&](bool training) {
+    m->train(training);
+    torch::manual_seed(4);
+    return m->loss(batch);
+  };
+  const LossTerms eval_terms = loss_in(false), train_terms = loss_in(true);
+  const double excess = eval_terms.terms.at("toe_slide_excess_mps").item<double>();
+  EXPECT_GE(excess, 0.0);
+  EXPECT_NEAR(train_terms.terms.at("toe_slide_excess_mps").item<double>(), excess, 1e-6);
+  EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + 3.0 * excess, 1e-5);
+  EXPECT_EQ(eval_terms.terms.count("planted_heel_mps"), 0u);  // the heel terms stay off
+  // PlantedHeelTerm::mean_excess_toe_slide itself is checked by hand in test_moglow_heel_terms.cpp.
+  cfg["toe_slide_weight"] = -1.0;
+  EXPECT_THROW(create_model("rvae", cfg, ctx), Error);
+  cfg["toe_slide_weight"] = 1.0;
+  EXPECT_THROW(create_model("rvae", cfg, small_context()), Error);
+}
+
 // The conditional prior's log-variance is clamped to [-10, 2]: a prior that asks for a huge spread
 // cannot make generation feed itself ever wider draws (samples stay finite and bounded).
 TEST(Rvae, ConditionalPriorSpreadIsBounded) {
