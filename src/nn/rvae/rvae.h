@@ -82,8 +82,8 @@ struct RvaeOptions {
   // Weight of a toe-slide term (beyond the paper): how much more the reconstructed toes slide than
   // the data's of the same window (PlantedHeelTerm::mean_excess_toe_slide: a toe within 1 cm of its
   // floor moving faster than 0.1 m/s, the independent check's rule), added to the training loss.
-  // The heel terms leave the toes free, and asked for the takes' own styles the shipped model's
-  // toes slid 1.3x the takes' (session 41). Positions form with toe joints only. 0: off.
+  // The heel terms leave the toes free: asked for the held-out takes' own styles, run 20's toes slid
+  // 1.3x the takes' (session 41). Positions form with toe joints only. 0: off.
   double toe_slide_weight = 0.0;
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
