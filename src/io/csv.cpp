@@ -4,6 +4,7 @@
 #include <cmath>
 #include <set>
 #include <string_view>
+#include <utility>
 
 #include "core/error.h"
 #include "io/atomic_file.h"
@@ -193,7 +194,8 @@ std::vector<Eigen::Vector3d> parse_control_csv(const std::string& text, const st
                        std::string("control CSV has no '") + names[k][0] + "' (or '" + names[k][1] +
                            "') column; expected a header like dx,dz,dtheta");
   }
-  const int time_column = table.column("t_s") >= 0 ? table.column("t_s") : table.column("time_s");
+  int time_column = table.column("t_s");
+  if (time_column < 0) time_column = table.column("time_s");
   std::vector<Eigen::Vector3d> controls;
   controls.reserve(table.rows.size());
   if (times_s) times_s->clear();
@@ -219,11 +221,9 @@ void write_control_csv(const std::string& path, const std::vector<Eigen::Vector3
   table.header = {"dx", "dz", "dtheta"};
   if (fps > 0) table.header.insert(table.header.begin(), "t_s");
   for (size_t t = 0; t < controls.size(); ++t) {
-    const Eigen::Vector3d& c = controls[t];
-    if (fps > 0)
-      table.rows.push_back({static_cast<double>(t) / fps, c[0], c[1], c[2]});
-    else
-      table.rows.push_back({c[0], c[1], c[2]});
+    std::vector<double> row = {controls[t][0], controls[t][1], controls[t][2]};
+    if (fps > 0) row.insert(row.begin(), static_cast<double>(t) / fps);
+    table.rows.push_back(std::move(row));
   }
   write_numeric_csv(path, table);
 }
