@@ -1,7 +1,7 @@
 /* A crowd through the C ABI (include/mosyn.h), in plain C: eight characters in two styles walk
- * and turn for three seconds; prints where each ends up and the per-frame cost, and checks the
+ * and turn for three seconds, steered by stick; prints where each ends up and the per-frame cost, and checks the
  * library's contract on the way (unit quaternions, errors reported, exact replay of a character).
- * Usage: crowd [MODEL_DIR]   (default models/moglow-locomotion). Exit code 0 when all is well. */
+ * Usage: crowd [MODEL_DIR]   (default models/moglow-realtime). Exit code 0 when all is well. */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <math.h>
 #include <stdio.h>
@@ -25,24 +25,26 @@ static int check(mosyn_status status, const char* what) {
   return 0;
 }
 
-/* Walks every slot for `frames` frames; slot k at 0.8 + 0.1 k m/s, turning by its own rate.
- * Stores slot 0's joint rotations of the last frame in last0 (4 x joints floats). */
+/* Walks every slot for `frames` frames, steered as a game steers (a stick per slot: the world
+ * velocity to reach and the heading to face): slot k at 0.8 + 0.1 k m/s, its facing swaying by its
+ * own phase. Stores slot 0's joint rotations of the last frame in last0 (4 x joints floats). */
 static int walk(mosyn_crowd* crowd, int frames, float* last0, size_t count) {
   const double fps = mosyn_crowd_fps(crowd);
-  float controls[CAPACITY * 3];
+  float sticks[CAPACITY * 3];
   for (int f = 0; f < frames; ++f) {
     for (int k = 0; k < CAPACITY; ++k) {
-      controls[3 * k + 0] = 0.0f;
-      controls[3 * k + 1] = (float)((0.8 + 0.1 * k) / fps);
-      controls[3 * k + 2] = (float)(0.3 * sin(0.05 * f + k) / fps);
+      const double speed = 0.8 + 0.1 * k, facing = 0.4 * k + 0.5 * sin(f / fps + k);
+      sticks[3 * k + 0] = (float)(speed * sin(facing)); /* vx, m/s */
+      sticks[3 * k + 1] = (float)(speed * cos(facing)); /* vz, m/s */
+      sticks[3 * k + 2] = (float)facing;                /* heading to face, radians */
     }
-    if (!check(mosyn_crowd_step(crowd, controls, CAPACITY * 3), "mosyn_crowd_step")) return 0;
+    if (!check(mosyn_crowd_step_stick(crowd, sticks, CAPACITY * 3), "mosyn_crowd_step_stick")) return 0;
   }
   return check(mosyn_crowd_joint_rotations(crowd, 0, last0, count), "mosyn_crowd_joint_rotations");
 }
 
 int main(int argc, char** argv) {
-  const char* model = argc > 1 ? argv[1] : "models/moglow-locomotion";
+  const char* model = argc > 1 ? argv[1] : "models/moglow-realtime";
   mosyn_crowd_options options;
   mosyn_crowd_options_default(&options);
   options.capacity = CAPACITY;

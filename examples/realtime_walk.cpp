@@ -1,8 +1,9 @@
 // Real-time generation with mosyn::nn::Generator: four characters step together, one frame per
-// call, each walking at 1.2 m/s and turning at its own rate, each in its own style when the model
-// takes style labels. Usage: realtime_walk [MODEL_DIR]
+// call, each steered as a game steers (a stick: walk at 1.2 m/s, facing and heading its own way),
+// each in its own style when the model takes style labels. Usage: realtime_walk [MODEL_DIR]
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -11,7 +12,7 @@
 #include "nn/run.h"
 
 int main(int argc, char** argv) try {
-  const std::string model_dir = argc > 1 ? argv[1] : "models/moglow-locomotion";
+  const std::string model_dir = argc > 1 ? argv[1] : "models/moglow-realtime";
   mosyn::nn::GeneratorOptions options;
   options.batch = 4;  // characters stepping together
   options.seed = 42;  // same seed and controls give the same motion
@@ -30,17 +31,18 @@ int main(int argc, char** argv) try {
   mosyn::nn::Generator generator(std::move(run), options);
   const double fps = generator.run().dataset.fps;
 
-  std::vector<float> control(options.batch * 3);  // [B, 3]: dx, dz (metres), dtheta (radians)
+  std::vector<float> stick(options.batch * 3);  // [B, 3]: vx, vz (m/s, world), heading to face (radians)
   double seconds_per_frame = 0;
   const int frames = static_cast<int>(3 * fps);
   for (int frame = 0; frame < frames; ++frame) {
     for (int b = 0; b < options.batch; ++b) {
-      control[3 * b + 0] = 0.0f;                              // no sideways step
-      control[3 * b + 1] = static_cast<float>(1.2 / fps);     // forward, 1.2 m/s
-      control[3 * b + 2] = static_cast<float>(0.25 * b / fps);  // turning 0, 0.25, 0.5, 0.75 rad/s
+      const double facing = 0.5 * b;                          // 0, 0.5, 1, 1.5 rad (0 faces +z)
+      stick[3 * b + 0] = static_cast<float>(1.2 * std::sin(facing));  // 1.2 m/s the way it faces
+      stick[3 * b + 1] = static_cast<float>(1.2 * std::cos(facing));
+      stick[3 * b + 2] = static_cast<float>(facing);
     }
     const auto start = std::chrono::steady_clock::now();
-    const std::vector<float> pose = generator.step(control);  // [B, D]: the next frame of everyone
+    const std::vector<float> pose = generator.step_stick(stick);  // [B, D]: the next frame of everyone
     seconds_per_frame += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (pose.size() != static_cast<size_t>(options.batch * generator.pose_dim())) return 1;
   }

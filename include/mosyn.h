@@ -10,9 +10,44 @@
  * - Units: positions in the model skeleton's units (mosyn_crowd_meters_per_unit converts), angles
  *   in radians, the skeleton's axes (BVH: y up). Quaternions are (w, x, y, z), unit length, the
  *   joint's rotation relative to its parent joint (the root's: relative to the world).
- * - A control is 3 floats per character and frame: dx (sideways), dz (forward) in metres and
- *   dtheta (turn, radians), the motion of the character's floor root from the previous frame to
- *   the new one, in the character's own frame. Walking 1.2 m/s at 20 fps: {0, 0.06, 0}.
+ * - A game steers a character as a stick does (mosyn_crowd_step_stick): 3 floats per character
+ *   and frame, the ground velocity it should reach, vx and vz in metres per second in the world
+ *   (the frame of mosyn_crowd_root's floor position: heading 0 faces +z, positive headings turn
+ *   towards +x), and the heading it should face, radians. Springs carry the character's root there
+ *   as the training data's roots start, stop and turn (about 1.3 s from rest to full speed for the
+ *   shipped models), and a model that reads the path ahead (models/moglow-realtime) reads where
+ *   those springs will take the root over the next second if the stick stays: no latency, no
+ *   future input. Zero velocity stands still.
+ * - Offline input (a recorded path) can instead be given as a control (mosyn_crowd_step): 3 floats
+ *   per character and frame, dx (sideways), dz (forward) in metres and dtheta (turn, radians), the
+ *   motion of the character's floor root from the previous frame to the new one, in the character's
+ *   own frame. Walking 1.2 m/s at 20 fps: {0, 0.06, 0}.
+ *
+ * A game loop (models/moglow-realtime, one character steered by a stick):
+ *
+ *   mosyn_crowd* crowd = NULL;
+ *   if (mosyn_crowd_create("models/moglow-realtime", NULL, &crowd) != MOSYN_OK) {
+ *     fprintf(stderr, "%s\n", mosyn_last_error());
+ *     return 1;
+ *   }
+ *   mosyn_crowd_add(crowd, 0, NULL);
+ *   const int32_t joints = mosyn_crowd_joint_count(crowd);
+ *   float* rotations = malloc(sizeof(float) * 4 * joints);
+ *   float sticks[16 * 3] = {0}; // capacity (default 16) x (vx, vz, facing)
+ *   for (;;) {                  // once every 1 / mosyn_crowd_fps(crowd) seconds
+ *     float stick_x = ..., stick_y = ..., camera_yaw = ...;   // the player's input
+ *     sticks[0] = 1.5f * (stick_x * cosf(camera_yaw) + stick_y * sinf(camera_yaw)); // m/s
+ *     sticks[1] = 1.5f * (stick_y * cosf(camera_yaw) - stick_x * sinf(camera_yaw));
+ *     if (stick_x != 0 || stick_y != 0) sticks[2] = atan2f(sticks[0], sticks[1]); // face the way
+ *     mosyn_crowd_step_stick(crowd, sticks, 16 * 3);
+ *     float hips[3], floor[3], heading;
+ *     mosyn_crowd_root(crowd, 0, hips, floor, &heading);
+ *     mosyn_crowd_joint_rotations(crowd, 0, rotations, 4 * (size_t)joints);
+ *     ... pose the engine's skeleton: joint j's local rotation rotations[4j..4j+3] (w, x, y, z),
+ *         the root joint at hips (skeleton units; mosyn_crowd_meters_per_unit converts) ...
+ *   }
+ *   free(rotations);
+ *   mosyn_crowd_destroy(crowd);
  */
 #ifndef MOSYN_H
 #define MOSYN_H
@@ -63,7 +98,7 @@ typedef struct mosyn_crowd_options {
 /* Fills options with the defaults above. */
 MOSYN_API void mosyn_crowd_options_default(mosyn_crowd_options* options);
 
-/* Loads a model directory (a run or a shipped model, e.g. models/moglow-locomotion) into a crowd
+/* Loads a model directory (a run or a shipped model, e.g. models/moglow-realtime) into a crowd
  * of options->capacity empty slots (options NULL = defaults). *out is NULL on failure. */
 MOSYN_API mosyn_status mosyn_crowd_create(const char* model_dir, const mosyn_crowd_options* options,
                                           mosyn_crowd** out);
@@ -102,6 +137,12 @@ MOSYN_API int32_t mosyn_crowd_active(const mosyn_crowd* crowd, int32_t slot);
 /* Advances every slot by one frame. controls: capacity x 3 floats (see the conventions above;
  * free slots' entries are ignored), count = their number. */
 MOSYN_API mosyn_status mosyn_crowd_step(mosyn_crowd* crowd, const float* controls, size_t count);
+
+/* Advances every slot by one frame steered by a stick. sticks: capacity x 3 floats, per slot the
+ * ground velocity to reach (vx, vz, m/s, world) and the heading to face (radians), see the
+ * conventions above; free slots' entries are ignored; count = their number. Frame t depends on
+ * the sticks up to t only. Steps by stick and by control may alternate. */
+MOSYN_API mosyn_status mosyn_crowd_step_stick(mosyn_crowd* crowd, const float* sticks, size_t count);
 
 /* Pose of a slot after the last step: out_wxyz receives joint_count x 4 floats (count = their
  * number, at least 4 x joint_count), each joint's local rotation. */

@@ -79,6 +79,6 @@ echo "demo: wrote $(find "$out" -type f | wc -l) files to $out/ and the dataset 
 for glb in "$out"/walk-turn-left_15fps.glb "$out"/curve/curve-normal.glb; do
   [ -f "$glb" ] && echo "demo: $glb: glTF beside its BVH (skinned body, one animation per motion, metres, Y up) for Blender, game engines, three.js"
 done
-echo "demo: steer a character live: $build/mosyn serve models/moglow-locomotion, then open http://127.0.0.1:8080"
+echo "demo: steer a character live: $build/mosyn serve models/moglow-realtime, then open http://127.0.0.1:8080"
 echo "      (arrow keys / WASD or a gamepad; style menu, speed, add characters; Ctrl-C stops the server)"
 exit 0

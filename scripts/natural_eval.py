@@ -10,7 +10,8 @@ generated/real ratios. Two settings, as issue "natural motion" asks:
      0.8-1.8 m/s), against the same real clips.
 
     scripts/natural_eval.py RUN DATASET --out DIR [--contents walk] [--n 2] [--max-clips 30]
-        [--mosyn build/mosyn] [--style S | --take-styles] [--temperature T] [--warmup S] [--seed K] [--foot-lock] [--json OUT.json]
+        [--mosyn build/mosyn] [--style S | --take-styles] [--temperature T] [--warmup S] [--seed K] [--foot-lock]
+        [--realtime] [--json OUT.json]
 
 With the default 2 samples a take (28 motions for the 14 held-out walks) the step ratio scatters
 by about 0.15 from one --seed to the next on the same weights (recurrent VAE run 20: 0.98, 0.72,
@@ -137,6 +138,8 @@ def main():
     ap.add_argument("--style", default="")
     ap.add_argument("--take-styles", action="store_true", help="walk each held-out take's control in the take's own style")
     ap.add_argument("--foot-lock", action="store_true")
+    ap.add_argument("--realtime", action="store_true",
+                    help="play every control frame by frame through the real-time Generator (mosyn sample --realtime)")
     ap.add_argument("--json", default="")
     ap.add_argument("--threads", default="1")
     ap.add_argument("--temperature", default="1")
@@ -148,7 +151,7 @@ def main():
         clips = [clips[i * len(clips) // a.max_clips] for i in range(a.max_clips)]
     source_dir = info["source_dirs"][0] if info.get("source_dirs") else info["source_dir"]
     real = [os.path.join(source_dir, c[1]) for c in clips]
-    extra = ["--temperature", a.temperature] + (["--foot-lock"] if a.foot_lock else []) + (["--warmup", a.warmup] if a.warmup else [])
+    extra = ["--temperature", a.temperature] + (["--foot-lock"] if a.foot_lock else []) + (["--realtime"] if a.realtime else []) + (["--warmup", a.warmup] if a.warmup else [])
     path_style = ["--style", a.style] if a.style else []
     results = {}
     gen = []
@@ -186,7 +189,7 @@ def main():
         slides = {name: dict(bands_mps=list(SPEED_BANDS_MPS[:-1]), sliding=[c[0] for c in counts], steps=[c[1] for c in counts])
                   for name, counts in split}
         json.dump(dict(run=a.run, dataset=a.dataset, clips=[c[1] for c in clips], n=a.n, paths=PATHS,
-                       foot_lock=a.foot_lock, style=a.style, take_styles=a.take_styles, results=results, toe_slides_by_pelvis_speed=slides),
+                       foot_lock=a.foot_lock, realtime=a.realtime, style=a.style, take_styles=a.take_styles, results=results, toe_slides_by_pelvis_speed=slides),
                   open(a.json, "w"), indent=1)
 
 

@@ -191,6 +191,19 @@ mosyn_status mosyn_crowd_step(mosyn_crowd* crowd, const float* controls, size_t 
   });
 }
 
+mosyn_status mosyn_crowd_step_stick(mosyn_crowd* crowd, const float* sticks, size_t count) {
+  if (!crowd || !sticks) return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_step_stick: crowd and sticks must not be NULL");
+  const size_t want = static_cast<size_t>(crowd->generator->batch()) * 3;
+  if (count != want)
+    return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_step_stick: sticks must hold capacity x 3 = " +
+                                            std::to_string(want) + " floats, got " + std::to_string(count));
+  return guarded([&] {
+    crowd->generator->step_stick(std::vector<float>(sticks, sticks + count));
+    std::fill(crowd->pose_valid.begin(), crowd->pose_valid.end(), 0);
+    return MOSYN_OK;
+  });
+}
+
 mosyn_status mosyn_crowd_joint_rotations(const mosyn_crowd* crowd, int32_t slot, float* out_wxyz, size_t count) {
   if (bad_slot(crowd, slot) || !out_wxyz)
     return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_joint_rotations: bad crowd, slot or pointer");

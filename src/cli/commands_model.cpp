@@ -171,6 +171,7 @@ struct SampleArgs {
   double observed_s = 1.0;
   int observed_frames = -1;
   bool foot_lock = false;
+  bool realtime = false;
   std::string format = "bvh";  // comma-separated: bvh, glb, gltf
 };
 
@@ -194,6 +195,7 @@ nn::SampleJobOptions job_options(const SampleArgs& a) {
   o.seed = a.seed;
   o.temperature = a.temperature;
   o.foot_lock = a.foot_lock;
+  o.realtime = a.realtime;
   return o;
 }
 
@@ -411,6 +413,9 @@ void add_sample_command(CLI::App& app, Action* action) {
   sample->add_flag("--foot-lock", s->foot_lock,
                    "post-process: pin each foot contact to one floor position by two-bone IK (off: the model's raw "
                    "motion)");
+  sample->add_flag("--realtime", s->realtime,
+                   "play the control frame by frame through the real-time Generator (as the C ABI and serve): frame "
+                   "t sees the control up to t only, a path is shaped causally as it plays");
   sample->add_option("--threads", s->threads, "CPU threads (default: all cores)");
   sample->callback([action, s] { *action = [s] { run_sample(*s); }; });
 }

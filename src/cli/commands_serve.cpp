@@ -71,7 +71,7 @@ void add_serve_command(CLI::App& app, Action* action) {
       "serve",
       "A live page where arrow keys / WASD or a gamepad steer characters the model animates in real time "
       "(HTTP and WebSocket on one port; one stream per connection)");
-  cmd->add_option("run", a->run_dir, "run or model directory of a streaming family (e.g. models/moglow-locomotion)")
+  cmd->add_option("run", a->run_dir, "run or model directory of a streaming family (e.g. models/moglow-realtime)")
       ->required();
   cmd->add_option("--port", a->server.port, "TCP port (default 8080; 0 = any free port)");
   cmd->add_option("--host", a->server.host, "address to bind (default 127.0.0.1: this machine only)");

@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "core/foot_lock.h"
+#include "data/root_controller.h"
 #include "nn/run.h"
+#include "nn/sampling.h"
 
 namespace mosyn::nn {
 
@@ -28,12 +30,13 @@ struct GeneratorOptions {
   // none for everyone, one entry = the same for everyone, else one entry per character. Only for
   // models that take labels (ModelTraits::labels); an unknown index is an error.
   std::vector<int> content, style;
-  // Causal shaping of live controls (a game pad's sudden starts, stops and turns) towards the
-  // Gaussian-smoothed trajectories the model was trained on: each control channel passes through a
-  // critically damped second-order filter whose 10-90% rise time equals that of the training
-  // Gaussian (2.56 sigma), i.e. natural angular frequency 1.31 / sigma. The root follows the shaped
-  // control. < 0 = the run's dataset root_smoothing_s (none for runs on the raw hip trajectory);
-  // 0 = off (controls used as given, e.g. controls that come from a smoothed dataset or path).
+  // Causal shaping of live input (a game pad's sudden starts, stops and turns) towards the
+  // Gaussian-smoothed trajectories the model was trained on: each character's root is simulated by
+  // a data::RootController whose critically damped filters rise as the training Gaussian does
+  // (10-90% in 2.56 sigma: natural angular frequency 1.31 / sigma). The root follows the filtered
+  // input, and a model that reads the path ahead reads the controller's prediction of it. < 0 = the
+  // run's dataset root_smoothing_s (none for runs on the raw hip trajectory); 0 = off (controls used
+  // as given; the path ahead predicted as the current control held).
   double control_smoothing_s = -1.0;
   // Clean feet for users who need them (off by default: the model's raw output): each generated
   // frame is decoded on the run's skeleton at the character's root, its planted ankles pinned by
@@ -81,8 +84,16 @@ class Generator {
   // dtheta radians of the new frame relative to the previous one), shaped as
   // GeneratorOptions::control_smoothing_s says before the model and the root see it; empty for a
   // family that generates its root motion (ModelTraits::control kGenerates), whose own root motion
-  // moves the root then. Returns raw pose [B, D].
+  // moves the root then. Returns raw pose [B, D]. Frame t depends on the input up to t only.
   std::vector<float> step(const std::vector<float>& control);
+
+  // Advances every character by one frame steered as a game steers: stick [B, 3] row-major, per
+  // character the ground velocity it should reach (x, z metres per second in the world of root():
+  // heading 0 faces +z, positive headings turn towards +x; data::StickInput) and the heading it
+  // should face (radians). The controller's springs carry the root there (GeneratorOptions::control_smoothing_s);
+  // a stick held at zero velocity stands still. Only for families that take control. Returns raw
+  // pose [B, D]. Steps by stick and by control may alternate (the root carries on smoothly).
+  std::vector<float> step_stick(const std::vector<float>& stick);
 
   // Restarts the stream (states, history, root poses) with a new seed: character k's seed is
   // row_seed(seed, k) (nn/model.h; character 0's is `seed` itself), every slot active.
@@ -122,5 +133,17 @@ class Generator {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// n motions played frame by frame through a Generator of batch n (character k seeded
+// row_seed(seed, k), as sample_motions seeds its rows): extras' prefix and labels start every
+// character; without a prefix, extras.warmup_frames (kFamilyWarmup = the family's default_warmup_s)
+// are generated first along the control's first step (its row 1) and dropped, as sample_motions'
+// lead-in; then each row of the raw control [T, C] is given to Generator::step in turn, so frame
+// t depends on the control up to max(t, 1) only. Returns per character
+// the raw poses and the control its root followed (Generator::last_control: the filtered one).
+// foot_lock: GeneratorOptions::foot_lock.
+std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vector<float>& control, int n,
+                                          std::uint64_t seed, double temperature, const SampleExtras& extras,
+                                          bool foot_lock = false);
 
 }  // namespace mosyn::nn

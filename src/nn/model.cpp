@@ -29,6 +29,10 @@ StreamFrame MotionModel::step_stream(StreamState&, const torch::Tensor&) {
   throw Error("model family '" + family() + "' cannot generate frame by frame (not causal)");
 }
 
+StreamFrame MotionModel::step_stream_ahead(StreamState& state, const torch::Tensor& control, const torch::Tensor&) {
+  return step_stream(state, control);
+}
+
 void MotionModel::copy_stream_row(StreamState&, int64_t, const StreamState&, int64_t) {
   throw Error("model family '" + family() + "' cannot move one character between streams (its batch is one state)");
 }

@@ -98,6 +98,12 @@ class MotionModel : public TrainableModel {
   // Advances a stream by one frame: control [B, C] standardised of the new frame t (the delta
   // t-1 -> t; undefined for families that generate their root motion) gives frame t.
   virtual StreamFrame step_stream(StreamState& state, const torch::Tensor& control);
+  // The same with the control predicted for the frames after t (ModelTraits::control_ahead_frames
+  // of them): control_ahead [B, K, C] standardised, made from the input up to t only (a real-time
+  // controller's simulated root, data/root_controller.h), so the stream stays causal. Families that
+  // read no path ahead ignore it (the default); undefined = the control of frame t held.
+  virtual StreamFrame step_stream_ahead(StreamState& state, const torch::Tensor& control,
+                                         const torch::Tensor& control_ahead);
   // Replaces row dst_row of stream dst by row src_row of stream src (both from begin_stream of
   // this model, possibly of different batch sizes): the character's whole state (history,
   // recurrent state, labels, noise generator) moves, so it continues exactly as it would have in

@@ -10,6 +10,7 @@
 #include "data/prepare.h"
 #include "io/bvh.h"
 #include "io/file_name.h"
+#include "nn/generator.h"
 
 namespace mosyn::nn {
 
@@ -101,7 +102,8 @@ std::vector<float> given_control(const LoadedRun& run, const SampleJobOptions& o
     plan.control_description = {{"kind", "path"}, {"path", text}, {"speed_mps", o.speed_mps}};
   }
   // Paths and files shaped like the run's training controls (its dataset's root smoothing).
-  if (!from_dataset) control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
+  // Not in real time: there the Generator's controller shapes every control causally as it plays.
+  if (!from_dataset && !o.realtime) control = data::smooth_control(control, fps, run.dataset.layout.root_smoothing_s);
   return control;
 }
 
@@ -163,7 +165,9 @@ SamplePlan plan_sample(const LoadedRun& run, const SampleJobOptions& o) {
 }
 
 std::vector<SampledClip> run_sample(const LoadedRun& run, const SamplePlan& plan, const SampleJobOptions& o) {
-  std::vector<SampledMotion> motions = sample_motions(run, plan.control, o.n, o.seed, o.temperature, plan.extras);
+  std::vector<SampledMotion> motions =
+      o.realtime ? stream_motions(run, plan.control, o.n, o.seed, o.temperature, plan.extras, o.foot_lock)
+                 : sample_motions(run, plan.control, o.n, o.seed, o.temperature, plan.extras);
   std::vector<SampledClip> out;
   out.reserve(motions.size());
   for (auto& m : motions) {
@@ -175,7 +179,7 @@ std::vector<SampledClip> run_sample(const LoadedRun& run, const SamplePlan& plan
     const int frames = static_cast<int>(m.control.size() / run.context.control_dim);
     s.clip = data::decode_features(run.dataset, m.pose.data(), m.control.data(), frames, plan.start_position,
                                    plan.start_heading_rad);
-    if (o.foot_lock) s.clip.motion = foot_lock(s.clip.skeleton, s.clip.motion, {}, &s.foot_lock);
+    if (o.foot_lock && !o.realtime) s.clip.motion = foot_lock(s.clip.skeleton, s.clip.motion, {}, &s.foot_lock);
     s.features = std::move(m);
     out.push_back(std::move(s));
   }

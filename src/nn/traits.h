@@ -26,6 +26,10 @@ struct ModelTraits {
   // MotionModel::copy_stream_row moves a character between streams (a runtime adds and removes
   // characters per slot).
   bool independent_rows = false;
+  // Frames of the path after frame t that the model reads (MoGlow with look-ahead). Offline
+  // sampling gives the real path; a stream gives a prediction made from the input up to t
+  // (MotionModel::step_stream with control_ahead), so it stays causal. 0 = none.
+  int control_ahead_frames = 0;
   // Seconds of standing that offline sampling generates first and drops when the caller leaves
   // the choice to the family (nn::kFamilyWarmup): families that start from a neutral state need it
   // to settle into a natural pose (MoGlow: the mean pose as history, 1 s); 0 for families whose

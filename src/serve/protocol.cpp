@@ -20,7 +20,9 @@ const std::set<std::string>& allowed_keys(MessageType type) {
   static const std::set<std::string> kStyle{"type", "character", "style", "content"};
   static const std::set<std::string> kAdd{"type", "style", "content"};
   static const std::set<std::string> kRemove{"type", "character"};
+  static const std::set<std::string> kStick{"type", "character", "vx", "vz", "facing"};
   switch (type) {
+    case MessageType::kStick: return kStick;
     case MessageType::kInput: return kInput;
     case MessageType::kStyle: return kStyle;
     case MessageType::kAdd: return kAdd;
@@ -37,7 +39,8 @@ MessageType message_type(const json& j) {
   if (t == "style") return MessageType::kStyle;
   if (t == "add") return MessageType::kAdd;
   if (t == "remove") return MessageType::kRemove;
-  throw ProtocolError("unknown message type (known: input, style, add, remove)");
+  if (t == "stick") return MessageType::kStick;
+  throw ProtocolError("unknown message type (known: stick, input, style, add, remove)");
 }
 
 // A required or optional finite number in [lo, hi].
@@ -92,6 +95,16 @@ ClientMessage parse_client_message(const std::string& text, const Limits& limits
   for (const auto& item : j.items())
     if (!keys.count(item.key())) throw ProtocolError("unknown key \"" + item.key().substr(0, 32) + "\"");
   switch (m.type) {
+    case MessageType::kStick: {
+      m.character = character(j, limits);
+      m.velocity_x_mps = *number(j, "vx", -limits.max_speed_mps, limits.max_speed_mps, true);
+      m.velocity_z_mps = *number(j, "vz", -limits.max_speed_mps, limits.max_speed_mps, true);
+      m.facing_rad = *number(j, "facing", -1e3, 1e3, true);
+      if (std::hypot(m.velocity_x_mps, m.velocity_z_mps) > limits.max_speed_mps)
+        throw ProtocolError("the stick's speed hypot(vx, vz) must be at most " + json(limits.max_speed_mps).dump() +
+                            " m/s");
+      break;
+    }
     case MessageType::kInput:
       m.character = character(j, limits);
       m.forward = *number(j, "forward", -1, 1, true);

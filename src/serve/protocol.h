@@ -2,6 +2,10 @@
 // so the server and its tests share one definition. Full description: src/serve/README.md.
 //
 // Client -> server (one JSON object per text message, at most kMaxMessageBytes, unknown keys refused):
+//   {"type":"stick", "character":k, "vx":x, "vz":z, "facing":h}
+//       as a game steers: the ground velocity (m/s, world x and z, |v| <= max_speed) the character
+//       should reach and the heading (radians, 0 faces +z, + turns towards +x) it should face;
+//       holds until the next stick or input (nn::Generator::step_stick).
 //   {"type":"input", "character":k, "forward":f, "turn":t, "speed":s}
 //       f, t in [-1, 1] (forward/back, left/right; +turn turns left), s in [0, max_speed] m/s
 //       (optional: the last speed stays); holds until the next input.
@@ -41,7 +45,7 @@ class ProtocolError : public Error {
   using Error::Error;
 };
 
-enum class MessageType { kInput, kStyle, kAdd, kRemove };
+enum class MessageType { kInput, kStyle, kAdd, kRemove, kStick };
 
 // One parsed, validated client message. Fields not used by a type keep their defaults.
 struct ClientMessage {
@@ -49,6 +53,7 @@ struct ClientMessage {
   int character = 0;                 // input, style, remove: in [0, max_characters)
   double forward = 0, turn = 0;      // input: in [-1, 1]
   std::optional<double> speed_mps;   // input: in [0, max_speed_mps] when given
+  double velocity_x_mps = 0, velocity_z_mps = 0, facing_rad = 0;  // stick: world velocity and facing
   // style, add: label names; std::nullopt = not given (add: none; style: keep), "" = none (JSON null).
   std::optional<std::string> style, content;
 };

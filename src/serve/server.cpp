@@ -35,6 +35,7 @@ std::string format_stats(const SessionStats& s) {
 
 struct Server::Impl {
   std::string run_dir;
+  std::shared_ptr<const nn::LoadedRun> run;  // loaded once; every session streams over its model
   ServerOptions options;
   Log log;
   std::string page;
@@ -113,7 +114,7 @@ struct Server::Impl {
       server->close(hdl, close_code::policy_violation, reason, ec);
     };
     auto finished = [this](const SessionStats& stats) { say("connection closed: " + format_stats(stats)); };
-    auto session = std::make_shared<Session>(run_dir, so, send, close, finished);
+    auto session = std::make_shared<Session>(run, so, send, close, finished);
     sessions[hdl] = session;
     open = static_cast<int>(sessions.size());
     session->start();
@@ -172,9 +173,10 @@ Server::Server(const std::string& run_dir, const ServerOptions& options, Log log
   if (options.threads < 1) throw Error("threads must be >= 1");
   if (options.session.limits.max_characters < 1 || options.session.limits.max_characters > 64)
     throw Error("max characters " + std::to_string(options.session.limits.max_characters) + " is not in 1..64");
-  const nn::LoadedRun run = nn::load_run(run_dir, {"checkpoint.pt", "cpu", options.threads});
-  if (!run.model || !run.traits.streaming)
-    throw Error(run_dir + ": the " + run.family + " family cannot generate frame by frame, so it cannot be steered live");
+  auto run = std::make_shared<const nn::LoadedRun>(nn::load_run(run_dir, {"checkpoint.pt", "cpu", options.threads}));
+  if (!run->model || !run->traits.streaming)
+    throw Error(run_dir + ": the " + run->family + " family cannot generate frame by frame, so it cannot be steered live");
+  impl_->run = std::move(run);
   impl_->run_dir = run_dir;
   impl_->options = options;
   impl_->log = std::move(log);

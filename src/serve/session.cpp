@@ -4,11 +4,13 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 
 #include "core/kinematics.h"
 #include "nn/generator.h"
+#include "nn/model.h"
 #include "nn/run.h"
 
 namespace mosyn::serve {
@@ -32,6 +34,9 @@ Eigen::Quaterniond heading_rotation(double heading_rad) {
 struct Character {
   bool active = false;
   double forward = 0, turn = 0, speed_mps = 1.3;
+  // Steered by a stick message (world velocity m/s and facing): held until the next stick or input.
+  bool by_stick = false;
+  double stick_vx_mps = 0, stick_vz_mps = 0, stick_facing_rad = 0;
   std::string style, content;
   Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();
   double origin_heading_rad = 0;
@@ -76,6 +81,24 @@ struct Session::Stream {
     c.origin_heading_rad = heading_rad;
   }
 
+  // Character k's stick in its Generator slot's frame: its stick message turned from the world into
+  // the slot's frame, or its held keys as one (forward at its speed along its heading, facing where
+  // the turn takes it in half a second: a held turn key keeps the heading moving).
+  std::array<float, 3> stick_of(int k, double turn_rate_rad_s) const {
+    const Character& c = characters[k];
+    if (!c.active) return {0, 0, 0};
+    const double heading = generator->root(k).heading_rad;
+    if (c.by_stick) {
+      const double a = -c.origin_heading_rad, ca = std::cos(a), sa = std::sin(a);
+      // Rotation about +y by a: x' = cos a x + sin a z, z' = -sin a x + cos a z.
+      return {float(ca * c.stick_vx_mps + sa * c.stick_vz_mps), float(-sa * c.stick_vx_mps + ca * c.stick_vz_mps),
+              float(c.stick_facing_rad - c.origin_heading_rad)};
+    }
+    const double v = c.forward * c.speed_mps;
+    return {float(v * std::sin(heading)), float(v * std::cos(heading)),
+            float(heading + 0.5 * c.turn * turn_rate_rad_s)};
+  }
+
   // Everything the client sees of character k after the last step.
   CharacterFrame frame_of(int k, bool positions) const {
     const auto& sk = run().dataset.skeleton;
@@ -117,6 +140,12 @@ Session::Session(std::string run_dir, const SessionOptions& options, Send send, 
       finished_callback_(std::move(finished)),
       tokens_(options.message_burst),
       last_receive_(std::chrono::steady_clock::now()) {}
+
+Session::Session(std::shared_ptr<const nn::LoadedRun> run, const SessionOptions& options, Send send, Close close,
+                 Finished finished)
+    : Session(run ? run->run_dir : std::string(), options, std::move(send), std::move(close), std::move(finished)) {
+  run_ = std::move(run);
+}
 
 Session::~Session() {
   stop();
@@ -179,9 +208,16 @@ void Session::apply(Stream& s, const ClientMessage& m) {
   Character& c = s.characters[k];
   switch (m.type) {
     case MessageType::kInput:
+      c.by_stick = false;
       c.forward = m.forward;
       c.turn = m.turn;
       if (m.speed_mps) c.speed_mps = *m.speed_mps;
+      break;
+    case MessageType::kStick:
+      c.by_stick = true;
+      c.stick_vx_mps = m.velocity_x_mps;
+      c.stick_vz_mps = m.velocity_z_mps;
+      c.stick_facing_rad = m.facing_rad;
       break;
     case MessageType::kStyle: {
       Eigen::Vector3d at;
@@ -213,7 +249,7 @@ void Session::loop(Stream& s) {
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.fps));
   const int batch = s.generator->batch(), dims = s.generator->control_dim();
   const bool takes_control = s.run().traits.control == nn::InputUse::kTakes && dims >= 3;
-  std::vector<float> control(static_cast<size_t>(batch) * dims, 0.0f);
+  std::vector<float> sticks(static_cast<size_t>(batch) * 3, 0.0f);
   auto next = Clock::now();
   for (long frame = 0; !stop_; ++frame) {
     std::deque<ClientMessage> messages;
@@ -228,12 +264,15 @@ void Session::loop(Stream& s) {
         send_(error_json(e.what()), false);
       }
     }
-    for (int k = 0; k < batch && takes_control; ++k) {
-      const Character& c = s.characters[k];
-      const auto u = control_from_input(c.forward, c.turn, c.speed_mps, options_.limits.turn_rate_rad_s, s.fps);
-      std::copy(u.begin(), u.end(), control.begin() + static_cast<size_t>(k) * dims);
+    if (takes_control) {
+      for (int k = 0; k < batch; ++k) {
+        const auto u = s.stick_of(k, options_.limits.turn_rate_rad_s);
+        std::copy(u.begin(), u.end(), sticks.begin() + static_cast<size_t>(k) * 3);
+      }
+      s.generator->step_stick(sticks);
+    } else {
+      s.generator->step({});
     }
-    s.generator->step(takes_control ? control : std::vector<float>{});
     std::vector<CharacterFrame> frames;
     for (int k = 0; k < batch; ++k)
       if (s.characters[k].active) frames.push_back(s.frame_of(k, options_.positions));
@@ -250,11 +289,15 @@ void Session::loop(Stream& s) {
   }
 }
 
-// Loads the run and makes the stream: a Generator with one slot per character, all free but the first.
-static void open_stream(const std::string& run_dir, const SessionOptions& options, std::optional<nn::Generator>* out) {
+// Makes the stream over the shared run (or loads run_dir): a Generator with one slot per character,
+// all free but the first.
+static void open_stream(const std::shared_ptr<const nn::LoadedRun>& shared, const std::string& run_dir,
+                        const SessionOptions& options, std::optional<nn::Generator>* out) {
   // Threads set here, in the worker: OpenMP's thread count is per calling thread, and a thread
   // that never set it would run BLAS on a team as wide as the machine.
-  nn::LoadedRun run = nn::load_run(run_dir, {"checkpoint.pt", "cpu", options.threads});
+  nn::set_num_threads(options.threads);
+  // A copy of a loaded run shares its model (LoadedRun::model is a shared pointer).
+  nn::LoadedRun run = shared ? *shared : nn::load_run(run_dir, {"checkpoint.pt", "cpu", options.threads});
   nn::GeneratorOptions g;
   g.batch = options.limits.max_characters;
   g.seed = options.seed;
@@ -268,7 +311,7 @@ void Session::work() {
   auto wall0 = std::chrono::steady_clock::now();
   try {
     Stream s;
-    open_stream(run_dir_, options_, &s.generator);
+    open_stream(run_, run_dir_, options_, &s.generator);
     s.fps = s.run().dataset.fps;
     s.meters_per_unit = s.run().dataset.skeleton.meters_per_unit > 0 ? s.run().dataset.skeleton.meters_per_unit : 1.0;
     Character idle;

@@ -11,9 +11,11 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <memory>
 #include <string>
 #include <thread>
 
+#include "nn/run.h"
 #include "serve/protocol.h"
 
 namespace mosyn::serve {
@@ -49,6 +51,10 @@ class Session {
   using Finished = std::function<void(const SessionStats& stats)>;
 
   Session(std::string run_dir, const SessionOptions& options, Send send, Close close, Finished finished = {});
+  // The same over a run already loaded (nn::load_run), shared with other sessions: its model is
+  // const, and the session holds only its own stream state (a server loads its weights once).
+  Session(std::shared_ptr<const nn::LoadedRun> run, const SessionOptions& options, Send send, Close close,
+          Finished finished = {});
   ~Session();  // stop() and join()
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -75,6 +81,7 @@ class Session {
   void apply(Stream& stream, const ClientMessage& message);
 
   std::string run_dir_;
+  std::shared_ptr<const nn::LoadedRun> run_;  // the shared run, or null: the worker loads run_dir_
   SessionOptions options_;
   Send send_;
   Close close_;

@@ -143,6 +143,39 @@ TEST_F(CliModelTest, SampleReadsAControlCsvAtItsOwnFrameRate) {
   EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --control " + csv + " --control-fps -1").exit_code, 2);
 }
 
+// `sample --realtime` plays a control through the real-time Generator: with the shipped real-time
+// model (which reads the path ahead) two controls equal up to frame t give the same frames up to t.
+TEST_F(CliModelTest, RealtimeSampleSeesNoControlAfterAFrame) {
+  const std::string model = std::string(MOSYN_SOURCE_DIR) + "/models/moglow-realtime";
+  const int frames = 60, t = 30;
+  for (const char* name : {"a", "b"}) {
+    std::ofstream csv(*root_ + "/rt_" + name + ".csv");
+    csv << "t_s,dx,dz,dtheta\n";
+    for (int f = 0; f < frames; ++f) {
+      const bool turns = name[0] == 'b' && f > t;
+      csv << f / 20.0 << ",0," << (f ? 0.065 : 0.0) << "," << (turns ? 0.05 : 0.0) << "\n";
+    }
+  }
+  std::vector<std::vector<double>> positions;
+  for (const char* name : {"a", "b"}) {
+    const std::string out = *root_ + "/rt_out_" + name;
+    const auto r = run_mosyn("sample " + model + " --realtime --control " + *root_ + "/rt_" + name +
+                             ".csv --n 1 --seed 5 --positions --threads 1 --warmup 0.5 --out " + out);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const io::NpyArray npy = io::read_npy(out + "/sample_000.npy");
+    ASSERT_EQ(npy.shape.at(0), frames);
+    positions.push_back(npy.to_float64());
+  }
+  ASSERT_EQ(positions[0].size(), positions[1].size());
+  const size_t per_frame = positions[0].size() / frames;
+  for (size_t i = 0; i < (t + 1) * per_frame; ++i)
+    ASSERT_EQ(positions[0][i], positions[1][i]) << "frame " << i / per_frame;
+  double after = 0;
+  for (size_t i = (t + 1) * per_frame; i < positions[0].size(); ++i)
+    after = std::max(after, std::abs(positions[0][i] - positions[1][i]));
+  EXPECT_GT(after, 1e-3);
+}
+
 TEST_F(CliModelTest, SampleErrors) {
   EXPECT_EQ(run_mosyn("sample /nonexistent/run --out " + *root_ + "/e").exit_code, 1);
   EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + *root_ + "/e --path 'a,b'").exit_code, 2);

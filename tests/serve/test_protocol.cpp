@@ -34,6 +34,23 @@ TEST(Protocol, AcceptsEveryMessageType) {
   EXPECT_EQ(m.character, 2);
 }
 
+TEST(Protocol, AStickIsAWorldVelocityAndAFacing) {
+  const ClientMessage m =
+      parse_client_message(R"({"type":"stick","character":2,"vx":-1.2,"vz":0.5,"facing":-1.9})", kLimits);
+  EXPECT_EQ(m.type, MessageType::kStick);
+  EXPECT_EQ(m.character, 2);
+  EXPECT_DOUBLE_EQ(m.velocity_x_mps, -1.2);
+  EXPECT_DOUBLE_EQ(m.velocity_z_mps, 0.5);
+  EXPECT_DOUBLE_EQ(m.facing_rad, -1.9);
+  for (const char* text : {R"({"type":"stick","character":0,"vx":2.5,"vz":2.5,"facing":0})",  // 3.5 m/s
+                           R"({"type":"stick","character":0,"vx":0,"vz":0})",
+                           R"({"type":"stick","character":0,"vx":0,"vz":0,"facing":"north"})",
+                           R"({"type":"stick","character":0,"vx":1e999,"vz":0,"facing":0})",
+                           R"({"type":"stick","character":0,"vx":0,"vz":0,"facing":0,"forward":1})",
+                           R"({"type":"stick","character":9,"vx":0,"vz":0,"facing":0})"})
+    EXPECT_THROW(parse_client_message(text, kLimits), ProtocolError) << text;
+}
+
 TEST(Protocol, RefusesMalformedMessages) {
   for (const char* text : {"", "{", "not json", "[1,2]", "42", "null", R"("input")", R"({})", R"({"type":7})",
                            R"({"type":"jump"})", R"({"type":"input","forward":1,"turn":0})",

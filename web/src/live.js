@@ -1,6 +1,7 @@
 // Live mode of the viewer (`mosyn serve`): characters the server's model animates in real time,
 // streamed over a WebSocket to the page's own host (protocol: src/serve/README.md). Arrow keys or
-// WASD and a gamepad steer the selected character; a style menu (when the model has styles), a
+// WASD and a gamepad steer the selected character as a game does, by the velocity and facing they
+// ask for relative to the camera (a "stick" message); a style menu (when the model has styles), a
 // speed control, add/remove buttons, each character's trail, and a camera that follows the
 // selected one. window.mosynLive holds what tests read: frames received, the selected
 // character's root per frame with its arrival time, and key-to-response latencies.
@@ -91,23 +92,47 @@ class LiveView {
 
   send(message) { if (this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(message)); }
 
-  // Sends the held input when it changed (or the speed did); a press from standing starts a
-  // latency measurement from `since` (a key event's own time stamp: when the browser got the key,
-  // however busy the page was then).
-  sendInput(force, since = performance.now()) {
-    if (!this.hello || !this.figures.has(this.selected)) return;
+  // The held keys or gamepad as a game steers: a stick relative to the camera (up = away from it)
+  // gives the world ground velocity at the speed control's value, and the character faces the way
+  // it goes; released, it stops facing where it last went. {vx, vz, facing, moving}.
+  stickInput() {
     const input = heldInput(this.held);
     const speed = Number(el('speed').value);
-    const key = `${this.selected} ${input.forward} ${input.turn} ${speed}`;
-    if (!force && key === this.sent) return;
-    if (input.forward !== 0 && (!this.sent || this.sent.split(' ')[1] === '0')) this.press = { t: since, first: null };
-    this.sent = key;
-    this.send({ type: 'input', character: this.selected, forward: input.forward, turn: input.turn, speed });
+    const ahead = new THREE.Vector3();
+    this.stage.camera.getWorldDirection(ahead);
+    const f = Math.hypot(ahead.x, ahead.z) > 1e-6 ? { x: ahead.x, z: ahead.z } : { x: 0, z: 1 };
+    const n = Math.hypot(f.x, f.z);
+    const fx = f.x / n, fz = f.z / n;  // camera forward on the ground; right = (-fz, fx)
+    const sx = -input.turn, sy = input.forward;  // the key map's turn (+1 = left) is the stick's -x
+    const length = Math.min(1, Math.hypot(sx, sy));
+    if (length === 0) return { vx: 0, vz: 0, facing: this.facing || 0, moving: false };
+    const dx = sy * fx - sx * fz, dz = sy * fz + sx * fx;
+    const d = Math.hypot(dx, dz);
+    const vx = (speed * length * dx) / d, vz = (speed * length * dz) / d;
+    return { vx, vz, facing: Math.atan2(vx, vz), moving: true };
+  }
+
+  // Sends the stick when it changed by more than a little (the camera turns it as it follows),
+  // at most 20 times a second unless forced; a press from standing starts a latency measurement
+  // from `since` (a key event's own time stamp: when the browser got the key, however busy the
+  // page was then).
+  sendInput(force, since = performance.now()) {
+    if (!this.hello || !this.figures.has(this.selected)) return;
+    const stick = this.stickInput();
+    const last = this.sent;
+    const changed = !last || last.id !== this.selected || Math.abs(stick.vx - last.vx) > 0.02 ||
+      Math.abs(stick.vz - last.vz) > 0.02 || Math.abs(stick.facing - last.facing) > 0.02;
+    const now = performance.now();
+    if (!force && (!changed || (last && stick.moving === last.moving && now - last.at < 50))) return;
+    if (stick.moving && (!last || !last.moving)) this.press = { t: since, first: null };
+    this.sent = { id: this.selected, ...stick, at: now };
+    this.facing = stick.facing;
+    this.send({ type: 'stick', character: this.selected, vx: stick.vx, vz: stick.vz, facing: stick.facing });
   }
 
   select(id) {
     if (this.figures.has(this.selected) && id !== this.selected)
-      this.send({ type: 'input', character: this.selected, forward: 0, turn: 0 });  // the last one stops
+      this.send({ type: 'stick', character: this.selected, vx: 0, vz: 0, facing: this.facing || 0 });  // the last one stops
     this.selected = id;
     this.sent = null;
     this.lastRoot = null;
@@ -189,6 +214,7 @@ class LiveView {
       }
     }
     this.lastRoot = c.root;
+    if (!this.sent || !this.sent.moving) this.facing = c.heading;  // standing: it keeps facing where it does
   }
 
   onFrame(msg, now) {

@@ -196,7 +196,21 @@ std::vector<LabelInput> MoGlowImpl::label_inputs() const {
 }
 
 int MoGlowImpl::control_frames_after() const {
-  return options_.lookahead.empty() ? 0 : *std::max_element(options_.lookahead.begin(), options_.lookahead.end());
+  if (options_.lookahead.empty()) return 0;
+  const int longest = *std::max_element(options_.lookahead.begin(), options_.lookahead.end());
+  return options_.predicted_lookahead > 0 ? std::max(longest, prediction_delay_frames()) : longest;
+}
+
+double MoGlowImpl::prediction_omega_per_frame() const {
+  const double sigma_s = options_.prediction_smoothing_s > 0 ? options_.prediction_smoothing_s
+                                                               : context_.layout.root_smoothing_s;
+  if (sigma_s <= 0 || context_.fps <= 0)
+    throw Error("moglow config: predicted_lookahead needs prediction_smoothing_s or a dataset with root smoothing");
+  return 1.31 / (sigma_s * context_.fps);  // as data::RootController
+}
+
+int MoGlowImpl::prediction_delay_frames() const {
+  return std::max(1, static_cast<int>(std::lround(2.0 / prediction_omega_per_frame())));
 }
 
 torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::Tensor& control,
@@ -213,7 +227,18 @@ torch::Tensor MoGlowImpl::conditioning(const torch::Tensor& pose, const torch::T
       throw Error("moglow: labels must be [B, " + std::to_string(label_dim_) + "]");
     parts.push_back(lab.unsqueeze(1).expand({b, n, label_dim_}));
   }
-  if (lookahead_dim_ > 0) parts.push_back(lookahead_features(control, control_after).narrow(1, tau, n));
+  if (lookahead_dim_ > 0) {
+    auto ahead = lookahead_features(control, control_after);
+    if (options_.predicted_lookahead > 0) {
+      auto predicted = predicted_lookahead_features(control, control_after);
+      if (is_training() && options_.predicted_lookahead < 1) {  // rows drawn on the CPU generator
+        auto rows = torch::bernoulli(torch::full({b, 1, 1}, options_.predicted_lookahead)).to(ahead.device());
+        predicted = rows * predicted + (1 - rows) * ahead;
+      }
+      ahead = predicted;
+    }
+    parts.push_back(ahead.narrow(1, tau, n));
+  }
   return torch::cat(parts, -1).transpose(0, 1);
 }
 
@@ -237,6 +262,37 @@ torch::Tensor MoGlowImpl::lookahead_features(const torch::Tensor& control, const
   std::vector<torch::Tensor> parts;
   for (int k : options_.lookahead)  // mean of frames t+1..t+k = (sums[t+k+1] - sums[t+1]) / k
     parts.push_back((sums.narrow(1, k + 1, t) - sums.narrow(1, 1, t)) / static_cast<double>(k));
+  return torch::cat(parts, -1);
+}
+
+torch::Tensor MoGlowImpl::predicted_lookahead_features(const torch::Tensor& control,
+                                                        const torch::Tensor& control_after) const {
+  if (lookahead_dim_ == 0) return {};
+  const int64_t b = control.size(0), t = control.size(1), c = control.size(2);
+  const int64_t delay = prediction_delay_frames();
+  const double w = prediction_omega_per_frame();
+  // The path continued as lookahead_features continues it, long enough for every frame's input.
+  std::vector<torch::Tensor> path = {control};
+  int64_t known = 0;
+  if (control_after.defined() && control_after.dim() == 3 && control_after.size(0) == b && control_after.size(2) == c) {
+    known = std::min<int64_t>(delay, control_after.size(1));
+    if (known > 0) path.push_back(control_after.narrow(1, 0, known).to(control.dtype()));
+  }
+  const torch::Tensor& last = path.back();
+  path.push_back(last.narrow(1, last.size(1) - 1, 1).expand({b, delay - known, c}));
+  const auto input = torch::cat(path, 1).narrow(1, delay, t);  // u_t = c_{t + delay}
+  // The filter's state: the control and its change from the frame before (none before frame 0).
+  const auto before = torch::cat({control.narrow(1, 0, 1), control.narrow(1, 0, t - 1)}, 1);
+  const auto j0 = control - input, j1 = (control - before) + w * j0;
+  std::vector<torch::Tensor> parts;
+  for (int k : options_.lookahead) {  // mean over frames t+1..t+k of u + (j0 + j1 i) e^{-w i}
+    double mean_e = 0, mean_ie = 0;
+    for (int i = 1; i <= k; ++i) {
+      mean_e += std::exp(-w * i) / k;
+      mean_ie += i * std::exp(-w * i) / k;
+    }
+    parts.push_back(input + mean_e * j0 + mean_ie * j1);
+  }
   return torch::cat(parts, -1);
 }
 
@@ -544,6 +600,17 @@ std::unique_ptr<StreamState> MoGlowImpl::begin_stream(const SampleRequest& reque
   return st;
 }
 
+std::shared_ptr<const MoGlowInference> MoGlowImpl::inference() {
+  std::lock_guard<std::mutex> lock(*inference_mutex_);
+  std::vector<std::pair<const void*, int64_t>> key;  // storage and in-place version of every parameter
+  for (const auto& p : parameters()) key.emplace_back(p.data_ptr(), p._version());
+  if (!inference_ || key != inference_key_) {
+    inference_ = std::make_shared<const MoGlowInference>(MoGlowInference::of(*this));
+    inference_key_ = std::move(key);
+  }
+  return inference_;
+}
+
 void MoGlowImpl::copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) {
   dynamic_cast<MoGlowStream&>(dst).copy_row(dst_row, dynamic_cast<const MoGlowStream&>(src), src_row);
 }
@@ -553,16 +620,26 @@ ModelTraits MoGlowImpl::traits() const {
   t.control = InputUse::kTakes;
   t.labels = label_dim_ > 0;
   t.prefix = true;
-  t.streaming = lookahead_dim_ == 0;
+  t.streaming = true;  // with look-ahead: the path ahead predicted from the input so far (step_stream_ahead)
+  t.control_ahead_frames = lookahead_dim_ > 0 ? *std::max_element(options_.lookahead.begin(), options_.lookahead.end()) : 0;
   t.independent_rows = true;
   t.default_warmup_s = options_.lead_in_s;
   return t;
 }
 
 StreamFrame MoGlowImpl::step_stream(StreamState& state, const torch::Tensor& control) {
-  if (lookahead_dim_ > 0)
-    throw Error("moglow: a model with look-ahead needs the path ahead and cannot stream frame by frame; use sample");
-  return {next_frame(state, control, {}), control};
+  return step_stream_ahead(state, control, {});
+}
+
+StreamFrame MoGlowImpl::step_stream_ahead(StreamState& state, const torch::Tensor& control,
+                                          const torch::Tensor& control_ahead) {
+  torch::Tensor ahead;
+  if (lookahead_dim_ > 0) {
+    if (control.dim() != 2 || control.size(1) != context_.control_dim)
+      throw Error("moglow step: control must be [B, " + std::to_string(context_.control_dim) + "]");
+    ahead = lookahead_features(control.unsqueeze(1), control_ahead).select(1, 0);
+  }
+  return {next_frame(state, control, ahead), control};
 }
 
 torch::Tensor MoGlowImpl::next_frame(StreamState& state, const torch::Tensor& control, const torch::Tensor& lookahead) {

@@ -16,6 +16,7 @@
 
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -46,6 +47,18 @@ struct MoGlowOptions {
   // turn per frame; past the end of the control, its last frame repeats). Empty = causal (the
   // paper). A model with look-ahead samples offline only (no frame-by-frame streaming).
   std::vector<int> lookahead;
+  // Training, with look-ahead: the probability that a window's look-ahead features are read from
+  // the path a real-time controller would predict at each frame instead of the path's real future,
+  // so that the model learns what it reads when it streams (data/root_controller.h: a critically
+  // damped filter of the control with natural frequency 1.31 / prediction_smoothing_s, its input
+  // held). At frame t the filter stands at the data's control c_t moving by c_t - c_{t-1}, and its
+  // input is the control one filter delay later, c_{t + round(2 / omega)} (the centroid of the
+  // filter's impulse response: a game's input shows up in the filtered root that much later).
+  // 1 = always, also in validation (its loss then scores the run-time input); 0 = the real future.
+  double predicted_lookahead = 0.0;
+  // The filter's Gaussian-equivalent sigma (seconds); <= 0 = the dataset's root_smoothing_s, which
+  // the runtime's controller matches (nn/generator.h GeneratorOptions::control_smoothing_s).
+  double prediction_smoothing_s = 0.0;
   // Clips shorter than the training window join training as one window each, padded with their
   // last frame, the padding masked out of the loss (exact: the flow is causal, so padding after
   // a frame cannot change its likelihood). false = left out, as runs before this option.
@@ -280,6 +293,8 @@ class FlowStepImpl : public torch::nn::Module {
 };
 TORCH_MODULE(FlowStep);
 
+struct MoGlowInference;  // moglow_stream.h
+
 class MoGlowImpl : public MotionModel {
  public:
   MoGlowImpl(const MoGlowOptions& options, const ModelContext& context);
@@ -309,7 +324,13 @@ class MoGlowImpl : public MotionModel {
   ModelTraits traits() const override;
   SampleOutput sample(const SampleRequest& request) override;
   std::unique_ptr<StreamState> begin_stream(const SampleRequest& request) override;
+  // The weights rearranged for inference (moglow_stream.h), built once and shared by every stream
+  // of the model (a server's connections, a crowd's characters); rebuilt when a parameter has
+  // changed since (training between samples). Thread-safe.
+  std::shared_ptr<const MoGlowInference> inference();
   StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
+  StreamFrame step_stream_ahead(StreamState& state, const torch::Tensor& control,
+                                const torch::Tensor& control_ahead) override;
   void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) override;
 
   // Result of running the normalising direction over a window.
@@ -358,6 +379,12 @@ class MoGlowImpl : public MotionModel {
   // MoGlowOptions::lookahead); undefined without look-ahead. The path continues with control_after
   // (optional [B, K, C], K >= 0), then its last frame repeats (a path that ends stands there).
   torch::Tensor lookahead_features(const torch::Tensor& control, const torch::Tensor& control_after = {}) const;
+  // The same features read from the controller's prediction at every frame
+  // (MoGlowOptions::predicted_lookahead): [B, T, C * lookahead.size()].
+  torch::Tensor predicted_lookahead_features(const torch::Tensor& control, const torch::Tensor& control_after = {}) const;
+  // The prediction filter's natural angular frequency per frame, and its delay in frames.
+  double prediction_omega_per_frame() const;
+  int prediction_delay_frames() const;
   double dropout() const { return dropout_; }
   // The residual's transport (MoGlowOptions::residual); nullptr when the flow models x_t itself.
   const PoseTransport* transport() const { return options_.residual ? &transport_ : nullptr; }
@@ -372,6 +399,10 @@ class MoGlowImpl : public MotionModel {
   int lookahead_dim_ = 0;
   double dropout_ = 0.0;
   PoseTransport transport_;  // with options_.residual
+  // inference()'s cache: the rearranged weights and the parameters' versions they were built from.
+  std::shared_ptr<std::mutex> inference_mutex_ = std::make_shared<std::mutex>();
+  std::shared_ptr<const MoGlowInference> inference_;
+  std::vector<std::pair<const void*, int64_t>> inference_key_;
   PlantedHeelTerm planted_heels_;  // with options_.heel_terms_on()
   // [num_content + 1, num_style + 1] float, 1 for the labels whose windows the lingering-heel term
   // reads (label_pattern_table); undefined = every window.

@@ -33,6 +33,7 @@ std::string lookahead_problem(const MoGlowOptions& o) {
   if (o.lookahead.size() > 16) return "at most 16 look-ahead offsets";
   for (int k : o.lookahead)
     if (k > 1000) return "look-ahead offsets must be at most 1000 frames";
+  if (o.predicted_lookahead > 0 && o.lookahead.empty()) return "predicted_lookahead needs look-ahead offsets";
   return "";
 }
 
@@ -164,6 +165,14 @@ const OptionFields<MoGlowOptions>& moglow_fields() {
           .field_checked_on_read("lookahead", &O::lookahead, "look-ahead offsets (frames) of the path; empty = causal",
                                  entries_at_least(1))
           .written_if([](const O& o) { return !o.lookahead.empty(); })
+          .field("predicted_lookahead", &O::predicted_lookahead,
+                 "training: probability a window's look-ahead is the real-time controller's prediction",
+                 in_range(0.0, 1.0))
+          .written_if([](const O& o) { return o.predicted_lookahead > 0; })
+          .field("prediction_smoothing_s", &O::prediction_smoothing_s,
+                 "sigma (s) of the controller's filter for predicted_lookahead; <= 0 = the dataset's root smoothing",
+                 in_range(-1.0, 10.0))
+          .written_if([](const O& o) { return o.prediction_smoothing_s > 0; })
           .field("short_clips", &O::short_clips, "train on clips shorter than the window (padding masked)")
           .written_if([](const O& o) { return !o.short_clips; })
           .field("residual", &O::residual, "the flow models each frame minus the transported previous one")

@@ -93,7 +93,7 @@ MoGlowInference MoGlowInference::of(MoGlowImpl& model) {
 }
 
 MoGlowStream::MoGlowStream(MoGlowImpl& model, int64_t b, const std::vector<std::uint64_t>& seeds)
-    : net(MoGlowInference::of(model)), batch(b) {
+    : shared_net(model.inference()), net(*shared_net), batch(b) {
   if (static_cast<int64_t>(seeds.size()) != b) throw Error("moglow stream: one seed per row needed");
   tau = model.options().tau;
   if (model.transport()) transport = *model.transport();

@@ -56,7 +56,8 @@ struct MoGlowInference {
 
 // A MoGlow stream: per character its conditioning row, every LSTM's state and a noise generator.
 struct MoGlowStream : StreamState {
-  MoGlowInference net;
+  std::shared_ptr<const MoGlowInference> shared_net;  // MoGlowImpl::inference(), shared by every stream
+  const MoGlowInference& net;
   int64_t batch = 0, tau = 0, pose_dim = 0, control_dim = 0, label_dim = 0, lookahead_dim = 0;
   double temperature = 1.0;
   // MoGlowOptions::residual: each frame adds the transported previous one (nullopt without).
