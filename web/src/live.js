@@ -4,7 +4,7 @@
 // ask for relative to the camera (a "stick" message); a style menu (when the model has styles), a
 // speed control, add/remove buttons, each character's trail, and a camera that follows the
 // selected one. window.mosynLive holds what tests read: frames received, the selected
-// character's root per frame with its arrival time, and key-to-response latencies.
+// character's root per frame with its arrival time, the sticks sent, and key-to-response latencies.
 import * as THREE from 'three';
 import { Figure } from './figures.js';
 import { Stage } from './stage.js';
@@ -67,7 +67,7 @@ const el = (id) => document.getElementById(id);
 class LiveView {
   constructor() {
     this.stage = new Stage(el('view'));
-    this.live = { frames: 0, roots: [], latencies: [], errors: [], hello: null, closed: null, frameMs: 0, lagMs: 0 };
+    this.live = { frames: 0, roots: [], sticks: [], latencies: [], errors: [], hello: null, closed: null, frameMs: 0, lagMs: 0 };
     window.mosynLive = this.live;
     this.figures = new Map();  // id -> { fig, trail, style }
     this.hello = null;
@@ -128,6 +128,8 @@ class LiveView {
     this.sent = { id: this.selected, ...stick, at: now };
     this.facing = stick.facing;
     this.send({ type: 'stick', character: this.selected, vx: stick.vx, vz: stick.vz, facing: stick.facing });
+    this.live.sticks.push([now, stick.vx, stick.vz, stick.facing]);
+    if (this.live.sticks.length > 5000) this.live.sticks.splice(0, 1000);
   }
 
   select(id) {
