@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/foot_lock.h"
 #include "core/kinematics.h"
+#include "core/parallel.h"
 #include "data/control.h"
 #include "data/dataset.h"
 #include "data/prepare.h"
@@ -196,6 +197,7 @@ nn::SampleJobOptions job_options(const SampleArgs& a) {
   o.temperature = a.temperature;
   o.foot_lock = a.foot_lock;
   o.realtime = a.realtime;
+  o.threads = a.threads;
   return o;
 }
 
@@ -244,7 +246,8 @@ void run_sample(const SampleArgs& a) {
   const int total_frames = sampled.front().clip.motion.num_frames;
   std::filesystem::create_directories(a.out_dir);
   const std::string gltf_name = formats.gltf_ext.empty() ? "" : a.prefix + "." + formats.gltf_ext;
-  for (int i = 0; i < a.n; ++i) {
+  // Every motion's files apart from the others': written on the cores --threads allows.
+  parallel_for(a.n, a.threads > 0 ? a.threads : hardware_threads(), [&](int i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
@@ -276,7 +279,7 @@ void run_sample(const SampleArgs& a) {
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
     if (!gltf_name.empty()) sidecar["gltf"] = {{"file", gltf_name}, {"animation", i}};
     io::write_json(base + ".json", sidecar);
-  }
+  });
   if (!gltf_name.empty()) write_sample_gltf((std::filesystem::path(a.out_dir) / gltf_name).string(), sampled, a.prefix);
   for (const nn::SampleStageTiming& stage : run.model->last_sample_timings())
     if (stage.steps > 0 && stage.rows > 0)

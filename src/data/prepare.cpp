@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/synthetic.h"
 #include "core/trajectory.h"
 #include "core/units.h"
@@ -33,32 +34,6 @@ struct Item {
   int content = -1;
   int style = -1;
 };
-
-// Runs body(i) for i in [0, n) on `threads` threads. If any call throws, the remaining work is
-// skipped and the exception of the lowest failing index is rethrown (deterministic messages).
-template <typename Body>
-void parallel_for(int n, int threads, Body body) {
-  std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
-  std::atomic<int> next{0};
-  std::atomic<bool> failed{false};
-  auto worker = [&] {
-    for (int i = next++; i < n && !failed; i = next++) {
-      try {
-        body(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-        failed = true;
-      }
-    }
-  };
-  const int count = std::max(1, std::min(threads, n));
-  std::vector<std::thread> pool;
-  for (int k = 1; k < count; ++k) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
-  for (const std::exception_ptr& e : errors)
-    if (e) std::rethrow_exception(e);
-}
 
 int index_of(const std::vector<std::string>& v, const std::string& s) {
   const auto it = std::find(v.begin(), v.end(), s);

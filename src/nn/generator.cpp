@@ -5,6 +5,7 @@
 #include "nn/generator.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <torch/types.h>
@@ -29,6 +30,15 @@ void check_input(const std::vector<float>& input, int64_t b, int64_t n, const st
   for (size_t i = 0; i < input.size(); ++i)
     if (active[i / n] && !std::isfinite(input[i]))
       throw Error(std::string("Generator::") + what + ": the input holds a NaN or infinite value");
+}
+
+// The stick that steers along a control row [3] (dx, dz metres, dtheta radians in the frame of the
+// heading so far): its world velocity (m/s) and the heading it leads to; advances *heading_rad.
+std::array<float, 3> stick_along(const float* delta, double* heading_rad, double fps) {
+  const double c = std::cos(*heading_rad), s = std::sin(*heading_rad);  // core/trajectory.h's frame
+  const double x = s * delta[1] + c * delta[0], z = c * delta[1] - s * delta[0];
+  *heading_rad += delta[2];
+  return {static_cast<float>(x * fps), static_cast<float>(z * fps), static_cast<float>(*heading_rad)};
 }
 
 }  // namespace
@@ -310,15 +320,23 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
   Generator generator(run, g);
   const int64_t t = static_cast<int64_t>(control.size()) / c;
   std::vector<SampledMotion> out(n);
-  std::vector<float> row(static_cast<size_t>(n * c));
+  std::vector<float> sticks(static_cast<size_t>(n) * 3);
+  const auto steer = [&](const float* delta, double* heading_rad) {  // the same stick for every character
+    const auto stick = stick_along(delta, heading_rad, run.dataset.fps);
+    for (int k = 0; k < n; ++k) std::copy(stick.begin(), stick.end(), sticks.begin() + k * 3);
+  };
   // The lead-in holds the control's first step (its row 1), as sample_motions' does: a character
   // that starts as the control starts, standing for a drawn path, walking for a take's control.
-  for (int k = 0; k < n; ++k)
-    for (int64_t i = 0; i < c; ++i) row[k * c + i] = t > 1 ? control[c + i] : 0.0f;
-  for (int f = 0; f < lead_in; ++f) generator.step(row);
+  const std::vector<float> first(control.begin() + (t > 1 ? c : 0), control.begin() + (t > 1 ? 2 * c : c));
+  for (int f = 0; f < lead_in; ++f) {
+    double facing = 0;
+    steer(t > 1 ? first.data() : std::vector<float>(3, 0.0f).data(), &facing);
+    generator.step_stick(sticks);
+  }
+  double heading_rad = 0;  // of the given control, integrated
   for (int64_t f = 0; f < t; ++f) {
-    for (int k = 0; k < n; ++k) std::copy_n(control.begin() + f * c, c, row.begin() + k * c);
-    const std::vector<float>& pose = generator.step(takes ? row : std::vector<float>{});
+    if (takes) steer(control.data() + f * c, &heading_rad);
+    const std::vector<float>& pose = takes ? generator.step_stick(sticks) : generator.step({});
     for (int k = 0; k < n; ++k) {
       out[k].pose.insert(out[k].pose.end(), pose.begin() + k * d, pose.begin() + (k + 1) * d);
       const auto& made = generator.last_control();

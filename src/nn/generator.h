@@ -138,8 +138,11 @@ class Generator {
 // row_seed(seed, k), as sample_motions seeds its rows): extras' prefix and labels start every
 // character; without a prefix, extras.warmup_frames (kFamilyWarmup = the family's default_warmup_s)
 // are generated first along the control's first step (its row 1) and dropped, as sample_motions'
-// lead-in; then each row of the raw control [T, C] is given to Generator::step in turn, so frame
-// t depends on the control up to max(t, 1) only. Returns per character
+// lead-in; then each row of the raw control [T, C] steers in turn as a stick would steer along it
+// (Generator::step_stick: the row's world velocity and the heading it leads to), so frame t
+// depends on the control up to max(t, 1) only. Steering by stick, the root's world track is the
+// control's smoothed, as offline sampling smooths a path (filtering the per-frame deltas instead
+// would straighten a zigzag). Returns per character
 // the raw poses and the control its root followed (Generator::last_control: the filtered one).
 // foot_lock: GeneratorOptions::foot_lock.
 std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vector<float>& control, int n,

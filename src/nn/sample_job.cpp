@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "data/control.h"
 #include "data/dataset.h"
 #include "data/prepare.h"
@@ -98,6 +99,9 @@ std::vector<float> given_control(const LoadedRun& run, const SampleJobOptions& o
     }
     double heading = 0;
     control = data::control_from_path(path, po, &heading);
+    // In real time the root trails the path by the controller's delay (about 1 s): 2 s more of
+    // standing, unless a duration is given, let it arrive.
+    if (o.realtime && o.seconds <= 0) control.resize(control.size() + 3 * static_cast<size_t>(2 * fps), 0.0f);
     if (o.continue_file.empty()) plan.start_heading_rad = heading;
     plan.control_description = {{"kind", "path"}, {"path", text}, {"speed_mps", o.speed_mps}};
   }
@@ -168,10 +172,11 @@ std::vector<SampledClip> run_sample(const LoadedRun& run, const SamplePlan& plan
   std::vector<SampledMotion> motions =
       o.realtime ? stream_motions(run, plan.control, o.n, o.seed, o.temperature, plan.extras, o.foot_lock)
                  : sample_motions(run, plan.control, o.n, o.seed, o.temperature, plan.extras);
-  std::vector<SampledClip> out;
-  out.reserve(motions.size());
-  for (auto& m : motions) {
-    SampledClip s;
+  std::vector<SampledClip> out(motions.size());
+  // Decoding (positions to rotations, foot locking) is per motion: spread over the cores.
+  parallel_for(static_cast<int>(motions.size()), o.threads > 0 ? o.threads : hardware_threads(), [&](int i) {
+    SampledMotion& m = motions[i];
+    SampledClip& s = out[i];
     if (plan.observed_frames > 0) {  // observed + continuation
       m.pose.insert(m.pose.begin(), plan.extras.prefix_pose.begin(), plan.extras.prefix_pose.end());
       m.control.insert(m.control.begin(), plan.extras.prefix_control.begin(), plan.extras.prefix_control.end());
@@ -181,8 +186,7 @@ std::vector<SampledClip> run_sample(const LoadedRun& run, const SamplePlan& plan
                                    plan.start_heading_rad);
     if (o.foot_lock && !o.realtime) s.clip.motion = foot_lock(s.clip.skeleton, s.clip.motion, {}, &s.foot_lock);
     s.features = std::move(m);
-    out.push_back(std::move(s));
-  }
+  });
   return out;
 }
 

@@ -45,6 +45,7 @@ struct SampleJobOptions {
   // ahead of time (the Generator's controller shapes them causally), foot locking is the
   // Generator's streaming one, and the written root is the controller's.
   bool realtime = false;
+  int threads = 0;                   // threads decoding the motions (run_sample); 0 = all cores
 };
 
 // The default path of `mosyn sample` without a control source.

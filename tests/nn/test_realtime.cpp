@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "data/control.h"
 #include "nn/generator.h"
 #include "nn/moglow/moglow.h"
 #include "nn/moglow/moglow_stream.h"
@@ -108,6 +109,31 @@ TEST(Realtime, AStickSteersTheRootAndTheBodyFollows) {
   // Bad input: wrong size, NaN.
   EXPECT_THROW(g.step_stick({1.0f, 0.0f}), Error);
   EXPECT_THROW(g.step_stick({NAN, 0.0f, 0.0f}), Error);
+}
+
+TEST(Realtime, FollowsADrawnPath) {
+  const auto& run = shipped();
+  data::PathOptions po;
+  po.speed_mps = 1.2;
+  po.fps = run.dataset.fps;
+  po.seconds = 13;  // the path takes about 10 s; the springs settle after it
+  const auto control = data::control_from_path(data::parse_path("0,0 2,2 0,4 2,6 0,8"), po);
+  const auto drawn = data::integrate_control(control);  // the path in the frame samples start in
+  const auto motions = nn::stream_motions(run, control, 2, 9, 1.0, {});
+  const double mpu = run.dataset.skeleton.meters_per_unit;
+  for (const auto& m : motions) {
+    const Clip clip = nn::decode_motion(run, m);
+    double worst = 0;
+    for (int f = 0; f < clip.motion.num_frames; ++f) {
+      const Eigen::Vector3d hips = clip.motion.translation(f, 0) * mpu;
+      double nearest = 1e9;
+      for (const auto& p : drawn) nearest = std::min(nearest, std::hypot(hips.x() - p.x(), hips.z() - p.z()));
+      worst = std::max(worst, nearest);
+    }
+    EXPECT_LT(worst, 0.5);
+    const Eigen::Vector3d end = clip.motion.translation(clip.motion.num_frames - 1, 0) * mpu;
+    EXPECT_LT(std::hypot(end.x() - drawn.back().x(), end.z() - drawn.back().z()), 0.5);
+  }
 }
 
 TEST(Realtime, StreamsShareOneLoadedModel) {
