@@ -37,8 +37,9 @@ std::string lookahead_problem(const MoGlowOptions& o) {
   return "";
 }
 
-// The training terms on free-running draws (heel, pelvis, stance, toe): positions form only.
-OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
+// The heel terms on free-running draws (planted, speed error, lingering; their draws and label
+// weights): positions form only.
+OptionFields<MoGlowOptions> with_heel_terms(OptionFields<MoGlowOptions>&& fields) {
   using O = MoGlowOptions;
   return std::move(fields)
       .field("foot_contact_weight", &O::foot_contact_weight,
@@ -76,7 +77,13 @@ OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields
               !problem.empty())
             return problem;
         return std::string();
-      })
+      });
+}
+
+// The pelvis, stance, speed-distribution and toe terms on the same draws: positions form only.
+OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
+  using O = MoGlowOptions;
+  return with_heel_terms(std::move(fields))
       .field("pelvis_follow_weight", &O::pelvis_follow_weight,
              "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
              at_least(0.0))
