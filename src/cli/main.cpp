@@ -31,9 +31,37 @@ std::string torch_binary(const char* argv0) {
   return (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + "mosyn-torch";
 }
 
+// What `mosyn` alone prints: every command with one example, from the repository root.
+constexpr const char* kOverview = R"(mosyn: probabilistic human-motion synthesis (BVH in, many natural motions out)
+
+Draw motions from a shipped model (models/*/README.md):
+  mosyn sample models/moglow-lookahead --out walks --n 4 --path "0,0 0,3 2,5" --content walk --style elderly
+  mosyn sample models/moglow-realtime --realtime --out live --path "0,0,3 0,5"   # frame by frame, as a game runs it
+  mosyn serve models/moglow-realtime             # steer characters live at http://127.0.0.1:8080
+Look at motion:
+  mosyn info take.bvh                            # joints, frames, fps, units
+  mosyn render walks/*.bvh --out walks.png --filmstrip 8 --camera side --follow
+  mosyn view walks/*.bvh --out walks.html        # a page that plays them in the browser
+  mosyn metrics walks/*.bvh --reference takes/*.bvh   # footsteps, foot skating, bone lengths
+Convert:
+  mosyn convert take.bvh take.glb                # glTF for Blender and game engines (also .npy, .csv, .bvh)
+Train your own (docs in README.md):
+  mosyn data prepare mocap/ --out data/loco --contents walk,run --fps 20 --mirror
+  mosyn train moglow --data data/loco --out runs/loco --init-from models/moglow-lookahead
+  mosyn eval runs/loco --data data/loco          # beside the held-out takes
+  mosyn compare runs/loco models/moglow-lookahead --data data/loco --out compared
+  mosyn export runs/loco --out models/my-model
+
+mosyn COMMAND --help tells every option of a command.
+)";
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc == 1) {  // no command: what mosyn can do (still a usage error for scripts)
+    std::cout << kOverview;
+    return 2;
+  }
   const std::string command = subcommand_of(argc, argv);
   const auto& heavy = mosyn::cli::torch_commands();
   if (std::find(heavy.begin(), heavy.end(), command) != heavy.end()) {

@@ -333,7 +333,9 @@ void fold_into_mean(TrainableModel& mean, const TrainableModel& other, int n) {
 
 LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   namespace fs = std::filesystem;
-  if (!fs::is_directory(run_dir)) throw Error(run_dir + ": run directory does not exist");
+  if (!fs::is_directory(run_dir))
+    throw Error(run_dir + ": run directory does not exist (a run is what `mosyn train --out DIR` writes; the shipped "
+                "models are models/NAME of the repository, listed in models/README.md)");
   if (options.threads >= 0) set_num_threads(options.threads);
   LoadedRun run;
   run.run_dir = run_dir;

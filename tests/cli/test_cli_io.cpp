@@ -29,7 +29,10 @@ std::string write_walk_bvh(const std::filesystem::path& dir) {
 }
 
 TEST(CliTest, UsageErrorsExitWithTwo) {
-  EXPECT_EQ(run_mosyn("").exit_code, 2);
+  const auto bare = run_mosyn("");  // prints what mosyn can do, one example per command
+  EXPECT_EQ(bare.exit_code, 2);
+  for (const char* example : {"mosyn sample models/", "mosyn serve models/", "mosyn convert ", "mosyn train ", "mosyn eval "})
+    EXPECT_NE(bare.out.find(example), std::string::npos) << example;
   EXPECT_EQ(run_mosyn("no-such-command").exit_code, 2);
   EXPECT_EQ(run_mosyn("info").exit_code, 2);
   EXPECT_EQ(run_mosyn("convert a.bvh b.bvh --no-such-flag").exit_code, 2);

@@ -45,7 +45,8 @@ struct MoGlowOptions {
   // Optional look-ahead of the path, as real-time character controllers use: for each offset k
   // (frames), the mean control over frames t+1..t+k (where the path goes next: displacement and
   // turn per frame; past the end of the control, its last frame repeats). Empty = causal (the
-  // paper). A model with look-ahead samples offline only (no frame-by-frame streaming).
+  // paper). Offline sampling reads the real path ahead; a stream reads the path a controller
+  // predicts from the input so far (MotionModel::step_stream_ahead), so it stays causal.
   std::vector<int> lookahead;
   // Training, with look-ahead: the probability that a window's look-ahead features are read from
   // the path a real-time controller would predict at each frame instead of the path's real future,
