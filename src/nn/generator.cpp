@@ -254,6 +254,26 @@ void Generator::add(int slot, const CharacterOptions& character) {
   m.active[slot] = 1;
 }
 
+void Generator::start_from(int slot, const Generator& warmed, int from_slot, std::uint64_t seed) {
+  auto& m = *impl_;
+  const auto& w = *warmed.impl_;
+  if (slot < 0 || slot >= m.options.batch || from_slot < 0 || from_slot >= w.options.batch)
+    throw Error("Generator::start_from: slot " + std::to_string(slot) + " or " + std::to_string(from_slot) +
+                " is out of range");
+  if (w.run.model != m.run.model) throw Error("Generator::start_from: the two Generators run different models");
+  if (!m.run.traits.independent_rows)
+    throw Error("Generator::start_from: the " + m.run.family + " family computes its batch as one state");
+  m.run.model->copy_stream_row(*m.stream, slot, *w.stream, from_slot);
+  m.run.model->reseed_stream_row(*m.stream, slot, seed);
+  m.controllers[slot] = w.controllers[from_slot];
+  m.roots[slot] = w.roots[from_slot];
+  const int64_t c = m.run.context.control_dim, d = m.run.context.pose_dim;
+  std::copy_n(w.last_control.begin() + from_slot * c, c, m.last_control.begin() + slot * c);
+  std::copy_n(w.last_pose.begin() + from_slot * d, d, m.last_pose.begin() + slot * d);
+  if (m.options.foot_lock) m.foot_locks[slot] = w.options.foot_lock ? w.foot_locks[from_slot] : m.foot_locks[slot];
+  m.active[slot] = 1;
+}
+
 void Generator::remove(int slot) {
   auto& m = *impl_;
   if (slot < 0 || slot >= m.options.batch)
@@ -320,23 +340,29 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
   Generator generator(run, g);
   const int64_t t = static_cast<int64_t>(control.size()) / c;
   std::vector<SampledMotion> out(n);
-  std::vector<float> sticks(static_cast<size_t>(n) * 3);
-  const auto steer = [&](const float* delta, double* heading_rad) {  // the same stick for every character
+  const auto stick_of = [&](const float* delta, double* heading_rad, int rows) {  // the same for every row
     const auto stick = stick_along(delta, heading_rad, run.dataset.fps);
-    for (int k = 0; k < n; ++k) std::copy(stick.begin(), stick.end(), sticks.begin() + k * 3);
+    std::vector<float> sticks(static_cast<size_t>(rows) * 3);
+    for (int k = 0; k < rows; ++k) std::copy(stick.begin(), stick.end(), sticks.begin() + k * 3);
+    return sticks;
   };
-  // The lead-in holds the control's first step (its row 1), as sample_motions' does: a character
-  // that starts as the control starts, standing for a drawn path, walking for a take's control.
-  const std::vector<float> first(control.begin() + (t > 1 ? c : 0), control.begin() + (t > 1 ? 2 * c : c));
-  for (int f = 0; f < lead_in; ++f) {
-    double facing = 0;
-    steer(t > 1 ? first.data() : std::vector<float>(3, 0.0f).data(), &facing);
-    generator.step_stick(sticks);
+  if (takes && lead_in > 0) {
+    // The lead-in holds the control's first step (its row 1), as sample_motions' does: a character
+    // that starts as the control starts, standing for a drawn path, walking for a take's control.
+    GeneratorOptions wo = g;
+    wo.batch = std::min(n, kWarmedCharacters);
+    Generator warming(run, wo);
+    const std::vector<float> first(control.begin() + (t > 1 ? c : 0), control.begin() + (t > 1 ? 2 * c : c));
+    for (int f = 0; f < lead_in; ++f) {
+      double facing = 0;
+      warming.step_stick(stick_of(t > 1 ? first.data() : std::vector<float>(3, 0.0f).data(), &facing, wo.batch));
+    }
+    for (int k = 0; k < n; ++k) generator.start_from(k, warming, k % wo.batch, row_seed(seed, k));
   }
   double heading_rad = 0;  // of the given control, integrated
   for (int64_t f = 0; f < t; ++f) {
-    if (takes) steer(control.data() + f * c, &heading_rad);
-    const std::vector<float>& pose = takes ? generator.step_stick(sticks) : generator.step({});
+    const std::vector<float>& pose =
+        takes ? generator.step_stick(stick_of(control.data() + f * c, &heading_rad, n)) : generator.step({});
     for (int k = 0; k < n; ++k) {
       out[k].pose.insert(out[k].pose.end(), pose.begin() + k * d, pose.begin() + (k + 1) * d);
       const auto& made = generator.last_control();

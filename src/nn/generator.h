@@ -109,6 +109,12 @@ class Generator {
   // of one character. Throws mosyn::Error for a slot outside [0, batch) or a family whose rows are
   // not independent (ModelTraits::independent_rows).
   void add(int slot, const CharacterOptions& character);
+  // Starts character `slot` from character `from_slot` of `warmed` (a Generator of the same loaded
+  // run, warmed up or stepped for a while): its stream state, simulated root and last pose, with
+  // its own noise seed from then on (MotionModel::reseed_stream_row). A crowd warms a few
+  // characters up and starts many from them, instead of warming every one. Throws mosyn::Error for
+  // a slot out of range or a family whose rows are not independent.
+  void start_from(int slot, const Generator& warmed, int from_slot, std::uint64_t seed);
   // Frees a slot: it keeps being computed (the batch keeps its size and the other characters are
   // unaffected) with zero control, and step() returns zeros for it, until add() fills it again.
   void remove(int slot);
@@ -138,13 +144,16 @@ class Generator {
 // row_seed(seed, k), as sample_motions seeds its rows): extras' prefix and labels start every
 // character; without a prefix, extras.warmup_frames (kFamilyWarmup = the family's default_warmup_s)
 // are generated first along the control's first step (its row 1) and dropped, as sample_motions'
-// lead-in; then each row of the raw control [T, C] steers in turn as a stick would steer along it
+// lead-in: for at most kWarmedCharacters characters, from whose states the others start
+// (character k from k mod kWarmedCharacters, with its own noise: Generator::start_from), so a crowd
+// does not pay the lead-in once per character; then each row of the raw control [T, C] steers in turn as a stick would steer along it
 // (Generator::step_stick: the row's world velocity and the heading it leads to), so frame t
 // depends on the control up to max(t, 1) only. Steering by stick, the root's world track is the
 // control's smoothed, as offline sampling smooths a path (filtering the per-frame deltas instead
 // would straighten a zigzag). Returns per character
 // the raw poses and the control its root followed (Generator::last_control: the filtered one).
 // foot_lock: GeneratorOptions::foot_lock.
+constexpr int kWarmedCharacters = 16;
 std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vector<float>& control, int n,
                                           std::uint64_t seed, double temperature, const SampleExtras& extras,
                                           bool foot_lock = false);

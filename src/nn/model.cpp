@@ -37,6 +37,10 @@ void MotionModel::copy_stream_row(StreamState&, int64_t, const StreamState&, int
   throw Error("model family '" + family() + "' cannot move one character between streams (its batch is one state)");
 }
 
+void MotionModel::reseed_stream_row(StreamState&, int64_t, std::uint64_t) {
+  throw Error("model family '" + family() + "' has no per-character noise generators to reseed");
+}
+
 std::uint64_t row_seed(std::uint64_t seed, int64_t row) {
   if (row == 0) return seed;
   // splitmix64 of the pair: nearby seeds and rows give unrelated streams.

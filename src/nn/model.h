@@ -110,6 +110,10 @@ class MotionModel : public TrainableModel {
   // src. Lets a runtime add a character to a running batch. Families without per-row state throw
   // mosyn::Error (the default).
   virtual void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row);
+  // Reseeds row `row`'s noise generator (as begin_stream seeds it), leaving the rest of its state:
+  // a character started from another's state (copy_stream_row) then draws its own noise. Families
+  // without per-row generators throw mosyn::Error (the default).
+  virtual void reseed_stream_row(StreamState& state, int64_t row, std::uint64_t seed);
 
   // Timings of the stages of the last sample() call the family measures; none by default.
   virtual std::vector<SampleStageTiming> last_sample_timings() const { return {}; }

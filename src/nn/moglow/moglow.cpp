@@ -611,6 +611,12 @@ std::shared_ptr<const MoGlowInference> MoGlowImpl::inference() {
   return inference_;
 }
 
+void MoGlowImpl::reseed_stream_row(StreamState& state, int64_t row, std::uint64_t seed) {
+  auto& st = dynamic_cast<MoGlowStream&>(state);
+  if (row < 0 || row >= st.batch) throw Error("moglow stream: row " + std::to_string(row) + " out of range");
+  st.generators[row] = at::detail::createCPUGenerator(seed);
+}
+
 void MoGlowImpl::copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) {
   dynamic_cast<MoGlowStream&>(dst).copy_row(dst_row, dynamic_cast<const MoGlowStream&>(src), src_row);
 }

@@ -332,6 +332,7 @@ class MoGlowImpl : public MotionModel {
   StreamFrame step_stream(StreamState& state, const torch::Tensor& control) override;
   StreamFrame step_stream_ahead(StreamState& state, const torch::Tensor& control,
                                 const torch::Tensor& control_ahead) override;
+  void reseed_stream_row(StreamState& state, int64_t row, std::uint64_t seed) override;
   void copy_stream_row(StreamState& dst, int64_t dst_row, const StreamState& src, int64_t src_row) override;
 
   // Result of running the normalising direction over a window.
