@@ -359,6 +359,10 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
     }
     for (int k = 0; k < n; ++k) generator.start_from(k, warming, k % wo.batch, row_seed(seed, k));
   }
+  for (auto& m : out) {
+    m.pose.reserve(static_cast<size_t>(t * d));
+    m.control.reserve(static_cast<size_t>(t * c));
+  }
   double heading_rad = 0;  // of the given control, integrated
   for (int64_t f = 0; f < t; ++f) {
     const std::vector<float>& pose =
