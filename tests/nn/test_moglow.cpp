@@ -286,8 +286,9 @@ TEST(MoGlow, SamplingIsDeterministicPerSeedAndStreamsMatch) {
 }
 
 // Look-ahead: the mean control over the next k frames (the last frame repeating past the end),
-// by hand; it joins the conditioning; a look-ahead model samples offline but refuses to stream.
-TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
+// by hand; it joins the conditioning; offline it reads the real path ahead, and a stream given the
+// same path ahead (step_stream_ahead) makes the same frames.
+TEST(MoGlow, LookaheadFeaturesByHandAndStreamedWithThePathAhead) {
   torch::manual_seed(1);
   nlohmann::json cfg = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.0}, {"lookahead", {1, 3}}};
   auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, small_context(6)));
@@ -317,7 +318,8 @@ TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
   EXPECT_TRUE(torch::allclose(model->conditioning(pose.narrow(1, 0, 4), control.narrow(1, 0, 4), {}, control.narrow(1, 4, 3)),
                               cond.narrow(0, 0, 2)));
   EXPECT_THROW(model->lookahead_features(control, torch::zeros({2, 3, 2}, torch::kFloat64)), mosyn::Error);
-  EXPECT_FALSE(model->traits().streaming);
+  EXPECT_TRUE(model->traits().streaming);
+  EXPECT_EQ(model->traits().control_ahead_frames, 3);
   SampleRequest req;
   req.control = control;
   req.seed = 3;
@@ -329,8 +331,56 @@ TEST(MoGlow, LookaheadFeaturesByHandAndOfflineOnly) {
   other.narrow(1, 3, 4).add_(1.0);
   req.control = other;
   EXPECT_FALSE(torch::allclose(a.select(1, 0), model->sample(req).pose.select(1, 0)));
+  req.control = control;
   auto stream = model->begin_stream(req);
-  EXPECT_THROW(model->step_stream(*stream, control.select(1, 0)), mosyn::Error);
+  std::vector<torch::Tensor> frames;
+  for (int64_t t = 0; t < 7; ++t) {
+    const auto ahead = control.narrow(1, t + 1, std::min<int64_t>(3, 6 - t));  // none after the last frame
+    frames.push_back(model->step_stream_ahead(*stream, control.select(1, t), ahead).pose);
+  }
+  EXPECT_TRUE(torch::allclose(torch::stack(frames, 1), a));
+}
+
+// predicted_lookahead: the features are the means of a critically damped spring's path, stepped
+// here frame by frame (exact discretisation) from the control and its change, its input the control
+// one filter delay later.
+TEST(MoGlow, PredictedLookaheadIsTheSpringsPathByBruteForce) {
+  torch::manual_seed(2);
+  nlohmann::json cfg = {{"num_steps", 2}, {"hidden", 8}, {"tau", 2}, {"dropout", 0.0}, {"lookahead", {2, 5}},
+                        {"predicted_lookahead", 1.0}, {"prediction_smoothing_s", 0.2}};
+  const auto ctx = small_context(6);
+  auto model = std::dynamic_pointer_cast<MoGlowImpl>(create_model("moglow", cfg, ctx));
+  model->to(torch::kFloat64);
+  const double w = 1.31 / (0.2 * ctx.fps);
+  const int64_t delay = std::max<int64_t>(1, std::lround(2.0 / w));
+  EXPECT_EQ(model->prediction_delay_frames(), delay);
+  EXPECT_EQ(model->control_frames_after(), std::max<int64_t>(5, delay));
+  const int64_t t_len = 9;
+  auto control = torch::randn({2, t_len, 3}, torch::kFloat64);
+  const auto f = model->predicted_lookahead_features(control);
+  ASSERT_EQ(f.sizes(), (std::vector<int64_t>{2, t_len, 6}));
+  for (int64_t b = 0; b < 2; ++b)
+    for (int64_t t = 0; t < t_len; ++t)
+      for (int64_t ch = 0; ch < 3; ++ch) {
+        const double u = control[b][std::min(t + delay, t_len - 1)][ch].item<double>();
+        double x = control[b][t][ch].item<double>();
+        double v = t > 0 ? x - control[b][t - 1][ch].item<double>() : 0.0;
+        double sum = 0, mean2 = 0;
+        for (int k = 1; k <= 5; ++k) {
+          const double x0 = x - u, e = std::exp(-w);
+          x = u + (x0 + (v + w * x0)) * e;
+          v = (v - w * (v + w * x0)) * e;
+          sum += x;
+          if (k == 2) mean2 = sum / 2;
+        }
+        EXPECT_NEAR(f[b][t][ch].item<double>(), mean2, 1e-9);
+        EXPECT_NEAR(f[b][t][3 + ch].item<double>(), sum / 5, 1e-9);
+      }
+  // Training reads them; without look-ahead the option is refused.
+  auto pose = torch::randn({2, t_len, 6}, torch::kFloat64);
+  EXPECT_TRUE(torch::allclose(model->conditioning(pose, control).narrow(2, 2 * 6 + 3 * 3, 6),
+                              f.narrow(1, 2, t_len - 2).transpose(0, 1)));
+  EXPECT_THROW(create_model("moglow", {{"predicted_lookahead", 0.5}}, ctx), mosyn::Error);
 }
 
 TEST(MoGlow, ConfigPresetsAndErrors) {
