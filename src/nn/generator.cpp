@@ -270,7 +270,7 @@ void Generator::start_from(int slot, const Generator& warmed, int from_slot, std
   const int64_t c = m.run.context.control_dim, d = m.run.context.pose_dim;
   std::copy_n(w.last_control.begin() + from_slot * c, c, m.last_control.begin() + slot * c);
   std::copy_n(w.last_pose.begin() + from_slot * d, d, m.last_pose.begin() + slot * d);
-  if (m.options.foot_lock) m.foot_locks[slot] = w.options.foot_lock ? w.foot_locks[from_slot] : m.foot_locks[slot];
+  if (m.options.foot_lock && w.options.foot_lock) m.foot_locks[slot] = w.foot_locks[from_slot];
   m.active[slot] = 1;
 }
 
@@ -352,11 +352,10 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
     GeneratorOptions wo = g;
     wo.batch = std::min(n, kWarmedCharacters);
     Generator warming(run, wo);
-    const std::vector<float> first(control.begin() + (t > 1 ? c : 0), control.begin() + (t > 1 ? 2 * c : c));
-    for (int f = 0; f < lead_in; ++f) {
-      double facing = 0;
-      warming.step_stick(stick_of(t > 1 ? first.data() : std::vector<float>(3, 0.0f).data(), &facing, wo.batch));
-    }
+    const float still[3] = {0, 0, 0};
+    double facing = 0;
+    const std::vector<float> held = stick_of(t > 1 ? control.data() + c : still, &facing, wo.batch);
+    for (int f = 0; f < lead_in; ++f) warming.step_stick(held);
     for (int k = 0; k < n; ++k) generator.start_from(k, warming, k % wo.batch, row_seed(seed, k));
   }
   for (auto& m : out) {
