@@ -12,7 +12,8 @@ MOSYN_DATA=${MOSYN_DATA:-../shared/data}
 SMOKE=${SMOKE:-0}
 mkdir -p "$OUT/data"
 
-# 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only).
+# 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only,
+#    a minute of them in training).
 LIMIT=""
 if [ "$SMOKE" = 1 ]; then
   LIMIT="--max-train-seconds 60"
@@ -30,7 +31,7 @@ fi
 
 # 3. Training from scratch on windows of 40 frames drawn from every clip (the raise-up clips and
 #    most runs and turns are shorter than 200 frames), batch 100, 1,000 warm-up steps to 1e-3,
-#    seed 1, 3,000 steps; the export takes the lowest validation loss (best.pt: step 3,000).
+#    seed 1, 3,000 steps; the last step (the lowest validation loss) is the model.
 STEPS=3000; BATCH=100; VAL_WINDOWS=256
 if [ "$SMOKE" = 1 ]; then STEPS=2; BATCH=4; VAL_WINDOWS=8; fi
 cat > "$OUT/train-config.json" <<JSON
@@ -39,4 +40,4 @@ cat > "$OUT/train-config.json" <<JSON
            "validate_every": 500, "val_windows": $VAL_WINDOWS, "seed": 1, "threads": 1}}
 JSON
 "$MOSYN" train classifier --data "$OUT/data/bandai2-rot200" --out "$OUT/run" --config "$OUT/train-config.json" --overwrite
-"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint best.pt --overwrite
+"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite

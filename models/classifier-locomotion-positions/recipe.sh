@@ -12,10 +12,11 @@ MOSYN_DATA=${MOSYN_DATA:-../shared/data}
 SMOKE=${SMOKE:-0}
 mkdir -p "$OUT/data"
 
-# 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only).
+# 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only,
+#    a minute of them in training).
 LOCO="walk,walk-turn-left,walk-turn-right,run"; LIMIT=""
 if [ "$SMOKE" = 1 ]; then
-  LOCO="walk"; LIMIT="--max-train-seconds 60"
+  LIMIT="--max-train-seconds 60"
   BN="$OUT/data/smoke/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
   [ -d "$BN" ] || { mkdir -p "$OUT/data/smoke"; tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data/smoke" \
       --wildcards '*/Bandai-Namco-Research-Motiondataset-2/cfg/*' '*/dataset-2_walk_*'; }
@@ -29,8 +30,8 @@ fi
 #    frames (hop 30), 10% of the files held out (split seed 0).
 "$MOSYN" data prepare "$BN" --out "$OUT/data/loco-positions" --form positions --contents "$LOCO" --fps 30 --mirror $LIMIT --overwrite
 
-# 3. Training from scratch: 600 steps of 64 windows, 50 warm-up steps to 1e-3; the export takes
-#    the checkpoint of the lowest validation loss (best.pt: step 600).
+# 3. Training from scratch: 600 steps of 64 windows, 50 warm-up steps to 1e-3; the last step (the
+#    lowest validation loss) is the model.
 STEPS=600; BATCH=64; VAL_WINDOWS=256
 if [ "$SMOKE" = 1 ]; then STEPS=2; BATCH=4; VAL_WINDOWS=8; fi
 cat > "$OUT/train-config.json" <<JSON
@@ -39,4 +40,4 @@ cat > "$OUT/train-config.json" <<JSON
            "validate_every": 100, "val_windows": $VAL_WINDOWS, "seed": 1, "threads": 1}}
 JSON
 "$MOSYN" train classifier --data "$OUT/data/loco-positions" --out "$OUT/run" --config "$OUT/train-config.json" --overwrite
-"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint best.pt --overwrite
+"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite
