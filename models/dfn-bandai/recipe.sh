@@ -4,7 +4,7 @@
 # Environment: MOSYN (the binary, default build/mosyn), MOSYN_DATA (the folder of the archives,
 # default ../shared/data), SMOKE=1 (every stage with a handful of steps, as `make test` runs it).
 # OUT_DIR ends as a model directory (config.json, stats.json, checkpoint.pt, log.jsonl).
-# Wall time (1 training thread): about 5 hours after the dataset (five runs, 16,470 steps).
+# Wall time (1 training thread): about 5 hours after the dataset (five runs, 15,985 steps).
 set -euo pipefail
 OUT=${1:?usage: bash models/dfn-bandai/recipe.sh OUT_DIR}
 MOSYN=${MOSYN:-build/mosyn}
