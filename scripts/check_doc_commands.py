@@ -194,6 +194,7 @@ def main():
     ap.add_argument("--timeout", type=float, default=float(os.environ.get("MOSYN_DOC_TIMEOUT", 120)))
     ap.add_argument("--links-only", action="store_true", help="check links (and options), run nothing")
     ap.add_argument("--list", action="store_true", help="print the commands that would run, run nothing")
+    ap.add_argument("--times", action="store_true", help="print every command's wall time")
     args = ap.parse_args()
     build = os.path.abspath(args.build)
     files = [os.path.abspath(f) for f in args.files] or \
@@ -244,6 +245,8 @@ def main():
                     output = (e.stdout or b"").decode(errors="replace") + (e.stderr or b"").decode(errors="replace")
                 ran += 1
                 took = time.time() - t0
+                if args.times:
+                    print(f"  {took:6.1f} s  {rel}:{no}: {command[:100]}", flush=True)
                 if rc != 0:
                     tail = "\n".join("    " + l for l in output.strip().split("\n")[-8:])
                     failures.append(f"{rel}:{no}: command failed ({'timed out after %g s' % args.timeout if rc == 'timeout' else 'exit %s' % rc}, {took:.1f} s): {command}\n{tail}")
