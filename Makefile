@@ -1,5 +1,5 @@
 # mosyn: the two commands a new user needs.
-#   make demo   install what is missing, build, run the main job
+#   make demo   install what is missing, build the command line, run the main job (README.md)
 #   make test   install what is missing, build, run the tests
 # Anything else here is a building block of those two.
 

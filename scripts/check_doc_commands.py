@@ -18,7 +18,8 @@ top-level entry of the repository (`build` pointing at --build, default $MOSYN_B
 and `../shared` pointing at the repository's ../shared. What a command writes with a relative path
 (`--out walks`) lands in that scratch folder and is deleted afterwards; the pages run one after
 another, each in its own scratch folder, so a page's commands may use what its earlier commands
-wrote. Each command has --timeout seconds (default 120, or $MOSYN_DOC_TIMEOUT); OMP_NUM_THREADS=1.
+wrote. Each command has --timeout seconds (default 120, or $MOSYN_DOC_TIMEOUT); OMP_NUM_THREADS=1 and
+OMP_WAIT_POLICY=passive.
 
 Every `mosyn` command in a shell block (run or not) has its options checked against the help of
 its subcommand, so a renamed option fails here. Relative Markdown links and images must point at
@@ -113,7 +114,8 @@ def check_options(build, command):
         if sub[0] == "data" and at + 2 < len(words):
             sub.append(words[at + 2])
         rc, text = mosyn_help(build, sub)
-        if rc != 0:
+        usage = re.search(r"^Usage: \S+ (.*)$", text, re.M)
+        if rc != 0 or not usage or not usage.group(1).startswith(" ".join(sub) + " "):
             problems.append(f"`mosyn {' '.join(sub)}` is not a command")
             continue
         known = set(re.findall(r"(?<![\w-])(--[a-z0-9][a-z0-9-]*)", text))
@@ -204,7 +206,9 @@ def main():
     if not have_mosyn and not args.list:
         print(f"check_doc_commands: {build}/mosyn not found: build it (make build) or pass --build DIR", file=sys.stderr)
         return 1
-    env = dict(os.environ, OMP_NUM_THREADS="1")
+    # One OpenMP thread that sleeps when idle: on a loaded machine (ctest -j, other jobs) spinning
+    # LibTorch threads otherwise wait for each other, several times slower.
+    env = dict(os.environ, OMP_NUM_THREADS="1", OMP_WAIT_POLICY="passive")
     failures, ran, skipped = [], 0, 0
     started = time.time()
     for path in files:
