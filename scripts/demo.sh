@@ -86,6 +86,9 @@ if [ -f "$model/checkpoint.pt" ]; then
     "$mosyn" render "$out/rvae/rvae-prior_000.bvh" --out "$out/rvae.png" --camera side --filmstrip 8 \
       --width 200 --height 300 --follow
   fi
+else
+  echo "demo: $model/checkpoint.pt not found, so no motion is drawn: the shipped models are committed" \
+    "under models/ (models/README.md); restore them with git checkout -- models" >&2
 fi
 
 stage "done"
