@@ -3,9 +3,10 @@
 #   bash models/moglow-realtime/recipe.sh OUT_DIR        (from the repository root)
 # Environment: MOSYN (the binary, default build/mosyn), MOSYN_DATA (the folder of the archives,
 # default ../shared/data), SMOKE=1 (every stage with a handful of steps, as `make test` runs it).
-# The starting weights are models/moglow-lookahead's (its own recipe.sh rebuilds them): this
-# model is the look-ahead MoGlow trained further on the paths a real-time controller predicts.
-# Wall time (2 idle cores, 1 training thread): about 10 minutes after the datasets.
+# This model is the look-ahead MoGlow trained further on the paths a real-time controller
+# predicts: it starts from run 30 of models/moglow-lookahead's recipe (the look-ahead weights
+# before their standing stage), which step 1 rebuilds.
+# Wall time (1 training thread): about 7.5 hours for step 1, then 10 minutes.
 set -euo pipefail
 OUT=${1:?usage: bash models/moglow-realtime/recipe.sh OUT_DIR}
 MOSYN=${MOSYN:-build/mosyn}
@@ -14,32 +15,24 @@ SMOKE=${SMOKE:-0}
 HERE=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$OUT/data"
 
-# 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only,
-#    a minute of them in training).
+# 1. models/moglow-lookahead's recipe up to its run 30 (it unpacks the Bandai-Namco archive,
+#    CC BY-NC 4.0, and prepares `loco20`, whose split every locomotion model is measured on).
+RECIPE_UNTIL=run-30 SMOKE=$SMOKE MOSYN=$MOSYN MOSYN_DATA=$MOSYN_DATA bash "$HERE/../moglow-lookahead/recipe.sh" "$OUT/lookahead"
+LA="$OUT/lookahead"
 LOCO="walk,walk-turn-left,walk-turn-right,run"; LIMIT=""
-if [ "$SMOKE" = 1 ]; then
-  LIMIT="--max-train-seconds 60"
-  BN="$OUT/data/smoke/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || { mkdir -p "$OUT/data/smoke"; tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data/smoke" \
-      --wildcards '*/Bandai-Namco-Research-Motiondataset-2/cfg/*' '*/dataset-2_walk_*'; }
-else
-  BN="$OUT/data/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data" bandai-namco/Bandai-Namco-Research-Motiondataset-2
-fi
+BN="$LA/data/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
+if [ "$SMOKE" = 1 ]; then LIMIT="--max-train-seconds 60"; BN="$LA/data/smoke/bandai-namco/Bandai-Namco-Research-Motiondataset-2"; fi
 
-# 2. Datasets at 20 fps, mirrored, positions. loco20 fixes the train/validation split (10% of the
-#    files held out, split seed 0) that every locomotion model of mosyn is measured on; locostand20-s07
-#    keeps that split and adds the six standing contents of the same archive (waving, raising
-#    hands: the locomotion takes hold almost no standing), with the root path filtered by a 0.7-s
-#    Gaussian and the standardisation of the starting weights.
+# 2. `locostand20-s07`: the split of `loco20` with the six standing contents of the same archive
+#    added (waving, raising hands: the locomotion takes hold almost no standing), 20 fps,
+#    mirrored, joint positions, the root path filtered by a 0.7-s Gaussian, the standardisation
+#    of the starting weights.
 STAND="wave-both-hands,wave-left-hand,wave-right-hand,raise-up-both-hands,raise-up-left-hand,raise-up-right-hand"
-"$MOSYN" data prepare "$BN" --out "$OUT/data/loco20" --form positions --contents "$LOCO" \
-    --fps 20 --window 80 --hop 40 --mirror $LIMIT --overwrite
 "$MOSYN" data prepare "$BN" --out "$OUT/data/locostand20-s07" --form positions --contents "$LOCO,$STAND" \
-    --fps 20 --window 80 --hop 40 --mirror --root-smoothing 0.7 --stats-from "$HERE/../moglow-lookahead" \
-    --split-from "$OUT/data/loco20" $LIMIT --overwrite
+    --fps 20 --window 80 --hop 40 --mirror --root-smoothing 0.7 --stats-from "$LA/run-30" \
+    --split-from "$LA/data/loco20" $LIMIT --overwrite
 
-# 3. Training from models/moglow-lookahead: every window's look-ahead is the path the runtime's
+# 3. Training from the look-ahead's run 30: every window's look-ahead is the path the runtime's
 #    controller predicts (predicted_lookahead 1), the foot terms of the starting weights' last
 #    stage, the standing windows drawn at 0.15 of their share (19% of the draws).
 STEPS=300; BATCH=40; VALIDATE=250; VAL_WINDOWS=256
@@ -56,5 +49,5 @@ cat > "$OUT/train-config.json" <<JSON
                              "raise-up-right-hand:*": 0.15}}}
 JSON
 "$MOSYN" train moglow --data "$OUT/data/locostand20-s07" --out "$OUT/run" --config "$OUT/train-config.json" \
-    --init-from "$HERE/../moglow-lookahead" --overwrite
+    --init-from "$LA/run-30" --overwrite
 cp "$OUT/run/config.json" "$OUT/config.json"
