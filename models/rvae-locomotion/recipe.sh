@@ -4,7 +4,7 @@
 # Environment: MOSYN (the binary, default build/mosyn), MOSYN_DATA (the folder of the archives,
 # default ../shared/data), SMOKE=1 (every stage with a handful of steps, as `make test` runs it).
 # OUT_DIR ends as a model directory (config.json, stats.json, checkpoint.pt, log.jsonl).
-# Wall time (1 training thread): about 4.5 hours after the datasets (14 runs, 136,960 steps).
+# Wall time (1 training thread): about 4.6 hours after the datasets (16 runs, 142,960 steps).
 set -euo pipefail
 OUT=${1:?usage: bash models/rvae-locomotion/recipe.sh OUT_DIR}
 MOSYN=${MOSYN:-build/mosyn}
@@ -47,13 +47,13 @@ KEEP=(--stats-from "$OUT/data/loco30-s07" --split-from "$OUT/data/loco30-s07")
 "$MOSYN" data prepare "$BN" --out "$OUT/data/loco30-rest" --contents "$LOCO,$STAND" --root-smoothing 0.7 \
     "${RETIME[@]}" --rest-ends 2 "${KEEP[@]}" "${P[@]}"
 
-# Fourteen runs, each from the weights of the one before (--init-from). The paper's network
+# Sixteen runs, each from the weights of the one before (--init-from). The paper's network
 # with its time constants in seconds (kernel 13 at 30 fps; channels 64/256, 64/128, 128; latent
 # 128), input dropout 0.1, batch 32, Adam at a constant rate. A run whose weights went on from
 # step N of a longer run trains N steps here (the rate is constant, so the weights are the same).
 BATCH=32; VAL_WINDOWS=256
-N=(16000 8460 26500 9000 8000 12000 4000 20000 11000 4000 4000 8000 3000 3000)
-if [ "$SMOKE" = 1 ]; then BATCH=4; VAL_WINDOWS=8; N=(2 2 2 2 2 2 2 2 2 2 2 2 2 2); fi
+N=(16000 8460 26500 9000 8000 12000 4000 20000 11000 4000 4000 8000 3000 3000 3000 3000)
+if [ "$SMOKE" = 1 ]; then BATCH=4; VAL_WINDOWS=8; N=(2 2 2 2 2 2 2 2 2 2 2 2 2 2 2 2); fi
 NET='"encoder_channels": [64, 256], "control_channels": [64, 128], "decoder_channels": [128], "latent": 128, "kernel": 13, "input_dropout": 0.1, "kl_weight": 1.0, "kl_anneal": 0.0, "l1": 0.0, "test_latents": "every_step"'
 stage() {  # stage INDEX DATA MODEL_KEYS LR WINDOW SEED EVERY [INIT_FROM]: trains $OUT/run-INDEX
   cat > "$OUT/train-config-$1.json" <<JSON
@@ -96,9 +96,18 @@ stage 12 loco30-stand "$L, $C, $F, $H" 0.00015 60 31 1000 11
 # 14. `loco30-rest` (takes that start from and come to rest): 3,000 steps.
 stage 13 loco30-rest "$L, $C, $F, $H" 0.00015 60 44 1000 12
 
-# --- The last training stage: run 30 (the weights shipped now) --------------------------------
 # 15. The toe-slide term at 3 (toes kept from sliding when a style is asked for): 3,000 steps.
 stage 14 loco30-rest "$L, $C, $F, $H, \"toe_slide_weight\": 3" 0.00015 60 60 1000 13
 
+# --- The last training stage: standing (the weights shipped now) ------------------------------
+# 16. `loco30-rest6`: as `loco30-rest` with the still pose of the rest copies held 6 s instead of
+#     2 (told to stand 10 s, the hips had wandered up to 0.41 m off the root: the windows never
+#     showed a still body lasting): two runs of 3,000 steps.
+"$MOSYN" data prepare "$BN" --out "$OUT/data/loco30-rest6" --contents "$LOCO,$STAND" --root-smoothing 0.7 \
+    "${RETIME[@]}" --rest-ends 6 "${KEEP[@]}" "${P[@]}"
+T='"toe_slide_weight": 3'
+stage 15 loco30-rest6 "$L, $C, $F, $H, $T" 0.00015 60 73 1000 14
+stage 16 loco30-rest6 "$L, $C, $F, $H, $T" 0.00015 60 74 1000 15
+
 # --- Export: the last stage's last step is the model ------------------------------------------
-"$MOSYN" export "$OUT/run-14" --out "$OUT" --checkpoint checkpoint.pt --overwrite
+"$MOSYN" export "$OUT/run-16" --out "$OUT" --checkpoint checkpoint.pt --overwrite
