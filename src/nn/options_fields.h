@@ -13,7 +13,7 @@
 //   fields().read(config, &o);  // type errors and unknown keys
 //   fields().check(o);          // value checks, once, in declaration order
 //
-// The declaring calls (field, written_if, rule, ignore) chain on a temporary, so a list is built in
+// The declaring calls (field, written_if, rule, ignore, include) chain on a temporary, so a list is built in
 // one expression and then only read (one static list per family).
 // Supported member types: int, double, bool, std::string, std::vector<int>, std::vector<double>,
 // std::vector<std::string>, std::map<std::string, double>.
@@ -215,6 +215,28 @@ class OptionFields {
     ignored_.insert(key);
     return std::move(*this);
   }
+  // Declares every field and rule of `sub` (a list over the struct Sub) as this list's own, reading
+  // and writing the member `member` of Options: options shared by several families (e.g. the foot
+  // objectives, nn/objectives/foot_objectives.h) live in one struct with one field list, and each
+  // family's config takes their keys at its top level, its errors naming the family. Keys must not
+  // repeat the family's own.
+  template <class Sub>
+  OptionFields include(Sub Options::*member, const OptionFields<Sub>& sub) && {
+    for (const auto& s : sub.entries_) {
+      Entry e;
+      e.key = s.key;
+      e.doc = s.doc;
+      if (s.read)
+        e.read = [member, r = s.read](const nlohmann::json& v, Options* out, const std::string& family) {
+          r(v, &(out->*member), family);
+        };
+      if (s.write) e.write = [member, w = s.write](const Options& o, nlohmann::json* j) { w(o.*member, j); };
+      if (s.check) e.check = [member, c = s.check](const Options& o) { return c(o.*member); };
+      if (s.written) e.written = [member, w = s.written](const Options& o) { return w(o.*member); };
+      entries_.push_back(std::move(e));
+    }
+    return std::move(*this);
+  }
 
   // Reads every key of config into *out (other members keep their values). Throws mosyn::Error
   // "<family> config must be a JSON object", "... unknown key 'k'" or the key's type error.
@@ -224,12 +246,12 @@ class OptionFields {
       if (ignored_.count(it.key())) continue;
       const Entry* e = find(it.key());
       if (!e) throw Error(family_ + " config: unknown key '" + it.key() + "'");
-      e->read(it.value(), out);
+      e->read(it.value(), out, family_);
     }
   }
   // Reads the one key `key` of config (present and declared) into *out.
   void read_key(const nlohmann::json& config, const std::string& key, Options* out) const {
-    find(key)->read(config.at(key), out);
+    find(key)->read(config.at(key), out, family_);
   }
 
   // Runs the value checks and rules in declaration order; throws mosyn::Error on the first failure.
@@ -258,9 +280,12 @@ class OptionFields {
   }
 
  private:
+  template <class>
+  friend class OptionFields;  // include() reads another list's entries
   struct Entry {
     std::string key, doc;  // key empty for a rule
-    std::function<void(const nlohmann::json&, Options*)> read;
+    // family: the list that reads (an including list's, so that its errors name it).
+    std::function<void(const nlohmann::json&, Options*, const std::string& family)> read;
     std::function<void(const Options&, nlohmann::json*)> write;
     std::function<std::string(const Options&)> check;
     std::function<bool(const Options&)> written;
@@ -272,16 +297,15 @@ class OptionFields {
     Entry e;
     e.key = key;
     e.doc = std::move(doc);
-    const std::string prefix = family_ + " config: ";
-    const std::string type_error = check.type_message.empty() ? prefix + "'" + key + "' " + J::error()
-                                                              : prefix + key + " " + check.type_message;
+    const std::string type_error = check.type_message.empty() ? "'" + key + "' " + J::error()
+                                                              : key + " " + check.type_message;
     auto fn = check.fn;
-    e.read = [=](const nlohmann::json& v, Options* out) {
-      if (!J::is(v)) throw Error(type_error);
+    e.read = [=](const nlohmann::json& v, Options* out, const std::string& family) {
+      if (!J::is(v)) throw Error(family + " config: " + type_error);
       T value = v.get<T>();
       if (on_read && fn) {
         const std::string problem = fn(key, value);
-        if (!problem.empty()) throw Error(prefix + problem);
+        if (!problem.empty()) throw Error(family + " config: " + problem);
       }
       out->*member = std::move(value);
     };

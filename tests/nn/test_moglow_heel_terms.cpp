@@ -137,7 +137,7 @@ TEST(MoGlowHeelTerms, HeelAndPelvisTermsOnTheRolloutAddWeightTimesTerm) {
   cfg["pelvis_follow_weight"] = 0.0;
   cfg["planted_speed_fraction"] = -0.1;
   EXPECT_THROW(create_model("moglow", cfg, ctx), mosyn::Error);
-  cfg["planted_speed_fraction"] = 0.1;  // read, kept in the resolved config (its effect: test_foot_contact)
+  cfg["planted_speed_fraction"] = 0.1;  // read, kept in the resolved config (its effect: test_foot_terms)
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("planted_speed_fraction").get<double>(), 0.1);
   cfg.erase("planted_speed_fraction");
   cfg["lift_off_weight"] = -1.0;
@@ -213,7 +213,7 @@ TEST(MoGlowHeelTerms, StanceTermReadsEveryDrawAndPhaseLockedTermsTheFirst) {
   }
   cfg["cold_start_fraction"] = 0.0;
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("stance_window_s").get<double>(), window / 30.0);
-  cfg["toe_terms"] = true;  // read, kept (its effect: test_foot_contact's WithToesReadsEachAnklesChild)
+  cfg["toe_terms"] = true;  // read, kept (its effect: test_foot_terms's WithToesReadsEachAnklesChild)
   EXPECT_TRUE(create_model("moglow", cfg, ctx)->config().at("toe_terms").get<bool>());
   cfg["toe_term_weight"] = 0.3;  // read, kept (its effect: WithToesReadsEachAnklesChild)
   EXPECT_DOUBLE_EQ(create_model("moglow", cfg, ctx)->config().at("toe_term_weight").get<double>(), 0.3);

@@ -3,13 +3,17 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "core/error.h"
 #include "io/json_file.h"
 #include "nn/classifier/classifier.h"
+#include "nn/dfn/dfn.h"
+#include "nn/hvrnn/hvrnn.h"
 #include "nn/moglow/moglow.h"
+#include "nn/mojo/mojo.h"
 #include "nn/options_fields.h"
 #include "nn/run_info.h"
 #include "nn/rvae/rvae.h"
@@ -133,7 +137,7 @@ TEST(Options, DefaultsPresetsAndWrittenKeys) {
 
 // Every shipped model's config.json "model" reads and writes back unchanged (dump for dump).
 TEST(Options, ShippedModelConfigsRoundTrip) {
-  int seen = 0;
+  std::set<std::string> seen;  // families
   for (const auto& entry : fs::directory_iterator(fs::path(MOSYN_SOURCE_DIR) / "models")) {
     const auto path = entry.path() / "config.json";
     if (!fs::exists(path)) continue;
@@ -147,13 +151,19 @@ TEST(Options, ShippedModelConfigsRoundTrip) {
       back = RvaeOptions::from_json(model).to_json();
     } else if (family == "classifier") {
       back = ClassifierOptions::from_json(model).to_json();
+    } else if (family == "hvrnn") {
+      back = HvrnnOptions::from_json(model).to_json();
+    } else if (family == "dfn") {
+      back = DfnOptions::from_json(model).to_json();
+    } else if (family == "mojo") {
+      back = MojoOptions::from_json(model).to_json();
     } else {
       continue;
     }
     EXPECT_EQ(back.dump(), model.dump()) << path;
-    ++seen;
+    seen.insert(family);
   }
-  EXPECT_GE(seen, 3);
+  EXPECT_EQ(seen, (std::set<std::string>{"classifier", "dfn", "hvrnn", "moglow", "mojo", "rvae"}));
 }
 
 // The facility on its own: unknown keys, ignored keys, on-read checks and docs.

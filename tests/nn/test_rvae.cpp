@@ -480,7 +480,7 @@ LossTerms seeded_loss(MotionModel& model, const Batch& batch, bool training) {
 
 // The foot-contact term (foot_contact_weight): reported in every loss, added only in training, so
 // the validation loss stays the ELBO; the planted data heels' speed is zero on the data itself.
-// It needs the positions form with the dataset's skeleton and statistics, and says so otherwise.
+// It needs the dataset's skeleton and statistics, and says so otherwise.
 TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
@@ -513,7 +513,7 @@ TEST(Rvae, FootContactTermOnlyInTrainingAndNeedsPositions) {
     create_model("rvae", cfg, small_context());
     ADD_FAILURE() << "foot_contact_weight accepted a context without a skeleton";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("positions form"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the foot objectives need"), std::string::npos) << e.what();
   }
 }
 
@@ -529,12 +529,12 @@ TEST(Rvae, ToeSlideTermOnlyInTrainingAndNeedsToes) {
   auto m = create_model("rvae", cfg, ctx);
   EXPECT_DOUBLE_EQ(m->config().at("toe_slide_weight").get<double>(), 3.0);
   const LossTerms eval_terms = seeded_loss(*m, batch, false), train_terms = seeded_loss(*m, batch, true);
-  const double excess = eval_terms.terms.at("toe_slide_excess_mps").item<double>();
+  const double excess = eval_terms.terms.at("toe_slide_mps").item<double>();
   EXPECT_GT(excess, 0.0);  // an untrained model's low toes wander where the standing data's stay
-  EXPECT_NEAR(train_terms.terms.at("toe_slide_excess_mps").item<double>(), excess, 1e-6);
+  EXPECT_NEAR(train_terms.terms.at("toe_slide_mps").item<double>(), excess, 1e-6);
   EXPECT_NEAR(train_terms.loss().item<double>(), eval_terms.loss().item<double>() + 3.0 * excess, 1e-5);
   EXPECT_EQ(eval_terms.terms.count("planted_heel_mps"), 0u);  // the heel terms stay off
-  // PlantedHeelTerm::mean_excess_toe_slide itself is checked by hand in test_moglow_heel_terms.cpp.
+  // FootTerms::mean_excess_toe_slide itself is checked by hand in test_moglow_heel_terms.cpp.
   cfg["toe_slide_weight"] = -1.0;
   EXPECT_THROW(create_model("rvae", cfg, ctx), Error);
   cfg["toe_slide_weight"] = 1.0;

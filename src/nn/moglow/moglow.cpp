@@ -165,20 +165,7 @@ MoGlowImpl::MoGlowImpl(const MoGlowOptions& options, const ModelContext& context
   cond_dim_ = tau * d + (tau + 1) * c + label_dim_ + lookahead_dim_;
   dropout_ = options.dropout;
   if (options.residual) transport_ = PoseTransport(context);
-  if (options.heel_terms_on()) {
-    PlantedHeelOptions heel_options;
-    heel_options.planted_mps = options.planted_mps;
-    heel_options.planted_speed_fraction = options.planted_speed_fraction;
-    heel_options.with_toes = options.toe_terms;
-    heel_options.toe_weight = options.toe_term_weight;
-    planted_heels_ = PlantedHeelTerm(context, "moglow", heel_options);
-  }
-  if (!options.heel_label_weights.empty())
-    heel_weight_table_ = label_weight_table(options.heel_label_weights, context.content_labels, context.style_labels,
-                                            context.num_content, context.num_style, "moglow config: heel_label_weights");
-  if (!options.lift_off_labels.empty())
-    lift_off_table_ = label_pattern_table(options.lift_off_labels, context.content_labels, context.style_labels,
-                                          context.num_content, context.num_style, "moglow config: lift_off_labels");
+  foot_ = FootObjectives(context, options.foot, "moglow");
   for (int k = 0; k < options.num_steps; ++k)
     steps.push_back(register_module("step" + std::to_string(k),
                                     FlowStep(d, cond_dim_, options.hidden, options.lstm_layers, options.scale_eps)));
@@ -374,17 +361,6 @@ torch::Tensor MoGlowImpl::rollout(const torch::Tensor& seen, const torch::Tensor
   return torch::stack(std::vector<torch::Tensor>(frames.end() - k, frames.end()), 1);
 }
 
-namespace {
-
-// [B, 1] in `options`: table's entry (label_table_rows) for each row of batch; ones without a table.
-torch::Tensor label_rows(const torch::Tensor& table, const Batch& batch, const torch::TensorOptions& options) {
-  const int64_t b = batch.pose.size(0);
-  if (!table.defined()) return torch::ones({b, 1}, options);
-  return label_table_rows(table.to(options.device()), batch.content, batch.style, b).to(options).view({b, 1});
-}
-
-}  // namespace
-
 MoGlowImpl::HeelDraws MoGlowImpl::heel_draws(const Batch& batch, const torch::Tensor& seen, const Encoded& e) {
   const int64_t tau = options_.tau, b = seen.size(0);
   int64_t n = e.z.size(1);
@@ -412,11 +388,13 @@ MoGlowImpl::HeelDraws MoGlowImpl::heel_draws(const Batch& batch, const torch::Te
 MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Tensor& seen, const Encoded& e,
                                              const torch::Tensor& frame_valid) {
   const int64_t tau = options_.tau, d = context_.pose_dim, c = context_.control_dim, b = seen.size(0);
+  const FootObjectiveOptions& foot = options_.foot;
+  const FootTerms& terms = foot_.terms();
   // heel_label_weights: each window's weight in the terms' means, on top of its valid frames [B, T'].
   torch::Tensor valid = frame_valid;
-  if (heel_weight_table_.defined())
+  if (!foot.heel_label_weights.empty())
     valid = (frame_valid.defined() ? frame_valid : torch::ones({b, e.z.size(1)}, seen.options())) *
-            label_rows(heel_weight_table_, batch, seen.options());
+            foot_.heel_weight_rows(batch.content, batch.style, b, seen.options()).view({b, 1});
   const HeelDraws draws = heel_draws(batch, seen, e);
   const auto &made = draws.made, &prev = draws.prev, &warm_rows = draws.warm_rows;
   const int64_t n = made.size(1);
@@ -429,54 +407,54 @@ MoGlowImpl::HeelTerms MoGlowImpl::heel_terms(const Batch& batch, const torch::Te
   const auto made_pairs = pairs(prev, made, d);
   const auto real_pairs = pairs(batch.pose.narrow(1, tau - 1, n), real_drawn, d);
   const auto control_pairs = pairs(batch.control.narrow(1, tau - 1, n), batch.control.narrow(1, tau, n), c);
-  const auto speeds = planted_heels_.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
+  const auto speeds = terms.speeds(made_pairs, real_pairs, control_pairs);  // once for every term
   // [B n, 1, .] pairs -> [B, n, .] sequences; the phase-locked terms read the first `locked` steps.
   // A scalar (the fixed planted threshold) stays as it is.
   const auto sequence = [&](const torch::Tensor& x, int64_t k) {
     return x.defined() && x.dim() > 0 ? x.reshape({b, n, -1}).narrow(1, 0, k) : x;
   };
   const int64_t locked = options_.phase_locked_frames > 0 ? std::min<int64_t>(n, options_.phase_locked_frames) : n;
-  const PlantedHeelTerm::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),
+  const FootTerms::HeelSpeeds first{sequence(speeds.made_mps, locked), sequence(speeds.real_mps, locked),
                                           sequence(speeds.planted_below_mps, locked), {}};
   const auto first_valid = (valid.defined() ? valid.narrow(1, 0, locked) : torch::ones({b, locked}, seen.options())) *
                            warm_rows.view({b, 1});
   HeelTerms out;
-  out.planted_mps = planted_heels_.mean_planted_speed(first, first_valid);
-  if (options_.heel_speed_weight > 0) out.speed_error_mps = planted_heels_.mean_speed_error(first, first_valid);
-  if (options_.lift_off_weight > 0) {
-    const auto lift_off_valid = first_valid * label_rows(lift_off_table_, batch, seen.options());  // lift_off_labels
-    out.lingering_mps = planted_heels_.mean_lingering_speed(first, lift_off_valid);
+  out.planted_mps = terms.mean_planted_speed(first, first_valid);
+  if (foot.heel_speed_weight > 0) out.speed_error_mps = terms.mean_speed_error(first, first_valid);
+  if (foot.lift_off_weight > 0) {
+    const auto lift_off_valid =  // lift_off_labels
+        first_valid * foot_.lift_off_rows(batch.content, batch.style, b, seen.options()).view({b, 1});
+    out.lingering_mps = terms.mean_lingering_speed(first, lift_off_valid);
   }
-  if (options_.stance_weight > 0 || options_.slow_share_weight > 0) {
-    const PlantedHeelTerm::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
-                                          sequence(speeds.planted_below_mps, n), {}};
-    const auto window = std::max<int64_t>(1, std::lround(options_.stance_window_s * context_.fps));
-    if (options_.stance_weight > 0)
-      out.missed_stance_mps = planted_heels_.mean_missed_stance(all, window, drawn_valid, options_.stance_relative);
-    if (options_.slow_share_weight > 0)
-      out.excess_slow_share = planted_heels_.mean_excess_slow_share(all, window, drawn_valid);
+  if (foot.stance_weight > 0 || foot.slow_share_weight > 0) {
+    const FootTerms::HeelSpeeds all{sequence(speeds.made_mps, n), sequence(speeds.real_mps, n),
+                                    sequence(speeds.planted_below_mps, n), {}};
+    const auto window = std::max<int64_t>(1, std::lround(foot.stance_window_s * context_.fps));
+    if (foot.stance_weight > 0)
+      out.missed_stance_mps = terms.mean_missed_stance(all, window, drawn_valid, foot.stance_relative);
+    if (foot.slow_share_weight > 0) out.excess_slow_share = terms.mean_excess_slow_share(all, window, drawn_valid);
   }
-  if (options_.speed_distribution_weight > 0 && n > 1) {
+  if (foot.speed_distribution_weight > 0 && n > 1) {
     // Every draw but the first: a cold start's first step leaves the mean pose, no frame of the motion.
     auto later = torch::ones({b, n}, seen.options()).index_put_({torch::indexing::Slice(), 0}, 0.0);
     if (drawn_valid.defined()) later = later * drawn_valid;
-    out.speed_distribution_mps = planted_heels_.mean_sorted_speed_error(
+    out.speed_distribution_mps = terms.mean_sorted_speed_error(
         {sequence(speeds.made_mps, n), sequence(speeds.real_mps, n), {}, sequence(speeds.root_mps, n)}, later,
-        options_.speed_distribution_cap_mps, options_.speed_distribution_cap_fraction);
+        foot.speed_distribution_cap_mps, foot.speed_distribution_cap_fraction);
   }
-  if (options_.toe_slide_weight > 0 && n > 1) {
+  if (foot.toe_slide_weight > 0 && n > 1) {
     // Along each row's own draws; the first step (from the history) is left out, as a cold start's
     // mean pose is no frame of the motion. Step s (draw s -> s + 1) is the root's step into draw s + 1.
     auto steps = valid.defined() ? drawn_valid.narrow(1, 1, n - 1) : valid;
-    if (options_.toe_slide_below_root_mps > 0) {
+    if (foot.toe_slide_below_root_mps > 0) {
       const auto step_root_mps = sequence(speeds.root_mps, n).squeeze(-1).narrow(1, 1, n - 1);  // [B, n - 1]
-      const auto slow = (step_root_mps < options_.toe_slide_below_root_mps).to(seen.dtype());
+      const auto slow = (step_root_mps < foot.toe_slide_below_root_mps).to(seen.dtype());
       steps = steps.defined() ? steps * slow : slow;
     }
-    out.toe_slide_mps = planted_heels_.mean_excess_toe_slide(made, real_drawn, batch.control.narrow(1, tau, n), steps);
+    out.toe_slide_mps = terms.mean_excess_toe_slide(made, real_drawn, batch.control.narrow(1, tau, n), steps);
   }
-  if (options_.pelvis_follow_weight > 0)
-    out.pelvis_offset_m = planted_heels_.mean_pelvis_offset_m(made, real_drawn, drawn_valid);
+  if (foot.pelvis_follow_weight > 0) out.pelvis_offset_m = terms.mean_pelvis_offset_m(made, real_drawn, drawn_valid);
+  if (foot.bone_length_weight > 0) out.bone_length_error_m = terms.mean_bone_length_error_m(made, drawn_valid);
   return out;
 }
 
@@ -528,16 +506,18 @@ LossTerms MoGlowImpl::loss(const Batch& batch) {
     // Training only, so that the validation loss stays the likelihood, comparable across runs.
     const auto seen = offset.defined() ? batch.pose + offset : batch.pose;
     const HeelTerms heels = heel_terms(batch, seen, e, valid);
-    auto added = options_.foot_contact_weight * heels.planted_mps;
+    const FootObjectiveOptions& foot = options_.foot;
+    auto added = foot.foot_contact_weight * heels.planted_mps;
     // Each optional term (undefined when its weight is 0): weighted into the loss, logged by name.
     const std::tuple<const torch::Tensor&, double, const char*> optional_terms[] = {
-        {heels.speed_error_mps, options_.heel_speed_weight, "heel_speed_error_mps"},
-        {heels.lingering_mps, options_.lift_off_weight, "lingering_heel_mps"},
-        {heels.missed_stance_mps, options_.stance_weight, "missed_stance_mps"},
-        {heels.toe_slide_mps, options_.toe_slide_weight, "toe_slide_mps"},
-        {heels.excess_slow_share, options_.slow_share_weight, "excess_slow_share"},
-        {heels.speed_distribution_mps, options_.speed_distribution_weight, "speed_distribution_mps"},
-        {heels.pelvis_offset_m, options_.pelvis_follow_weight, "pelvis_offset_m"}};
+        {heels.speed_error_mps, foot.heel_speed_weight, "heel_speed_error_mps"},
+        {heels.lingering_mps, foot.lift_off_weight, "lingering_heel_mps"},
+        {heels.missed_stance_mps, foot.stance_weight, "missed_stance_mps"},
+        {heels.toe_slide_mps, foot.toe_slide_weight, "toe_slide_mps"},
+        {heels.excess_slow_share, foot.slow_share_weight, "excess_slow_share"},
+        {heels.speed_distribution_mps, foot.speed_distribution_weight, "speed_distribution_mps"},
+        {heels.pelvis_offset_m, foot.pelvis_follow_weight, "pelvis_offset_m"},
+        {heels.bone_length_error_m, foot.bone_length_weight, "bone_length_error_m"}};
     for (const auto& [term, weight, name] : optional_terms) {
       if (!term.defined()) continue;
       added = added + weight * term;

@@ -21,7 +21,7 @@
 #include <tuple>
 #include <vector>
 
-#include "nn/foot_contact.h"
+#include "nn/objectives/foot_objectives.h"
 #include "nn/model.h"
 #include "nn/moglow/pose_transport.h"
 
@@ -81,128 +81,32 @@ struct MoGlowOptions {
   // given and the caller leaves the choice to the family (ModelTraits::default_warmup_s, `--warmup`).
   // From the mean pose the model needs time to settle into the gait: the paper pre-generates 1 s;
   // a model whose fast gaits settle later records a longer lead-in here, so that its run directory
-  // samples as it was measured (models/moglow-lookahead: 3 s, session 38).
+  // samples as it was measured (models/moglow-lookahead: 3 s).
   double lead_in_s = 1.0;
-  // Training only, positions form: weight of the planted-heel term (nn/foot_contact.h), the mean
-  // ground speed (m/s) of the heels of frames drawn from the flow (temperature 1, teacher-forced
-  // history) where the data's heels are planted. The likelihood alone leaves planted feet
-  // gliding (models/moglow-lookahead/README.md); 0 = off (the paper). Logged as planted_heel_mps.
-  double foot_contact_weight = 0.0;
-  // Frames the term's draws run free: 0 = every frame of the window drawn at once under the true
-  // history; k > 0 = k frames generated one by one after the window's first tau true frames, each
-  // conditioned on the draws before it, as in sampling (the glide of a model fed its own history).
+  // Training only: the shared foot objectives (nn/objectives/foot_objectives.h: planted heels,
+  // heel speed, lift-off, stance, speed distribution, toe slide, pelvis, bone lengths), their keys
+  // at the top level of the config. MoGlow computes them on frames drawn from the flow, not on the
+  // likelihood's teacher-forced frames: the likelihood alone leaves planted feet gliding
+  // (models/moglow-lookahead/README.md). Every weight 0 = off (the paper).
+  FootObjectiveOptions foot;
+  // Frames the terms' draws run free: 0 = every frame of the window drawn at once under the true
+  // history (temperature foot_contact_temperature); k > 0 = k frames generated one by one after the
+  // window's first tau true frames, each conditioned on the draws before it, as in sampling (the
+  // glide of a model fed its own history).
   int foot_contact_rollout = 0;
-  double foot_contact_temperature = 1.0;  // latent standard deviation of the term's draws
-  // Training only, positions form: weight of the heel-speed error on the same draws
-  // (PlantedHeelTerm::mean_speed_error: |made - real| heel ground speed, m/s, on every frame).
-  // The planted-heel term charges only a heel that glides where the data's stands; one that
-  // lingers slow into the data's swing (contacts too long, the independent check's steps 1.5x
-  // real) costs it nothing, and this term charges both. 0 = off. Logged as heel_speed_error_mps.
-  double heel_speed_weight = 0.0;
-  // Training only, positions form: weight of the lingering-heel term on the same draws
-  // (PlantedHeelTerm::mean_lingering_speed: how far below 0.15 m/s a made heel stays where the
-  // data's has lifted), the planted-heel term's complement. With the planted term alone the heels
-  // plant but stay slow too long (contacts at 15 cm/s 0.40 s in walks against the takes' 0.32);
-  // the speed error above also charges every swing. 0 = off. Logged as lingering_heel_mps.
-  double lift_off_weight = 0.0;
-  // Training only: the windows the lingering-heel term reads, as "CONTENT:STYLE" patterns over the
-  // dataset's labels (nn/label_pattern.h; "*" = any); empty = every window. Why (session 39): the
-  // runs' drawn heels lift slowly (the elderly runs' stances 0.34 s against the takes' 0.28), and
-  // the term on every window had come with sliding drawn paths (1.7x the takes'). Needs the
-  // context's vocabularies (a dataset or run).
-  std::vector<std::string> lift_off_labels;
-  // Training only: {"CONTENT:STYLE": factor} (nn/label_pattern.h; "*" = any) weights of the
-  // windows of those labels in the means of the heel and pelvis terms (the product of the factors
-  // of every pattern a window matches; 1 where none does; 0 leaves a window out). The toe-slide
-  // term, a mean of per-window means, is unweighted. Why (session 39): the elderly runs drawn three
-  // times as often (TrainOptions::label_weights) stepped closer to their takes while the drawn
-  // paths' feet slid; this weights the terms alone, leaving the likelihood's draws as they are.
-  // Needs the context's vocabularies (a dataset or run).
-  std::map<std::string, double> heel_label_weights;
-  // Training only, positions form: weight of the pelvis term on the same draws
-  // (PlantedHeelTerm::mean_pelvis_offset_m: horizontal distance, m, between the made and the data's
-  // pelvis, both relative to the root). The likelihood scores each frame under the true history, so
-  // a flow that undershoots the root's step at speed never sees its body fall behind; drawn free it
-  // does (held-out runs at 3.3 m/s: the body made 1.7 m/s). Useful with foot_contact_rollout > 0.
-  // 0 = off. Logged as pelvis_offset_m.
-  double pelvis_follow_weight = 0.0;
-  // Training only: the heel terms call a data heel planted below this speed (m/s; PlantedHeelOptions).
-  // Real heels roll at 0.1-0.15 m/s at the ends of a stance; at 0.15 the terms hold a drawn heel
-  // still there too, and the drawn contacts outlast the takes' (session 36).
-  double planted_mps = kDefaultPlantedMps;
-  // Training only: the heel terms' planted threshold rises with the root's ground speed, to
-  // max(planted_mps, fraction x root speed) (PlantedHeelTerm): at 20 fps a running heel seldom
-  // stays under 0.15 m/s for more than a frame, so at the fixed threshold the runs barely reach
-  // the terms and their footsteps stay soft. 0 = the fixed planted_mps (runs before session 29).
-  double planted_speed_fraction = 0.0;
-  // Training only, positions form: weight of the phase-free stance term on the same draws
-  // (PlantedHeelTerm::mean_missed_stance over runs of stride_window_s): each drawn heel must stop
-  // once in every such run in which the data's heel plants, at any phase. Drawn free for a second
-  // or two, the planted-heel term charges a heel whose phase has drifted from the data's as if it
-  // glided; this term does not, so it can run over a long rollout (foot_contact_rollout 40) where
-  // the fast runs' legs stop cycling (models/moglow-lookahead/README.md, session 29). 0 = off.
-  // Logged as missed_stance_mps.
-  double stance_weight = 0.0;
-  double stance_window_s = 1.0;  // longer than a stride of the slowest gait the data holds
-  // The stance term's bar in each run: the data heel's slowest speed there (true) instead of the
-  // planted threshold (false). Why (session 33): drawn free, continued weights' stance feet crept
-  // backward at 0.1-0.15 m/s, under the threshold, and the toes with them slid past the independent
-  // check's 0.1 m/s, where real planted heels stop (0.06-0.07 m/s at the slowest).
-  bool stance_relative = false;
-  // Training only, positions form: weight of the slow-share term on the stance term's runs
-  // (PlantedHeelTerm::mean_excess_slow_share: how much more of each 1-s run a drawn heel spends
-  // slower than 0.15 / 0.3 / 0.6 m/s than the data's heel does, a fraction per level). The stance
-  // term reads each run's slowest step only, which a long stance meets as well as a short one
-  // (run 30 of models/moglow-lookahead holds each walking contact a third longer than the takes).
-  // 0 = off. Logged as excess_slow_share. Measured (session 34, weight 1): the heels left the slow
-  // band by sliding, not lifting (skating past the bars within 300 steps); kept for further work.
-  double slow_share_weight = 0.0;
-  // Training only, positions form: weight of the speed-distribution term on every draw but the
-  // first (PlantedHeelTerm::mean_sorted_speed_error: the drawn and the data heels' speeds over the
-  // draws, clamped at speed_distribution_cap_mps and sorted, compared pair by pair). Phase-free,
-  // it charges a gliding stance and a stance held longer than the data's alike (session 37). With
-  // toe_terms it reads the toes too. 0 = off. Logged as speed_distribution_mps.
-  double speed_distribution_weight = 0.0;
-  double speed_distribution_cap_mps = PlantedHeelTerm::kSpeedDistributionCapMps;
-  // Each step's cap is max(speed_distribution_cap_mps, this x the root's ground speed); 0 = the
-  // fixed cap. Why: PlantedHeelTerm::mean_sorted_speed_error.
-  double speed_distribution_cap_fraction = 0.0;
-  // Training only: the phase-locked heel terms (planted, speed error, lingering) read the first
-  // this many draws of the rollout only; 0 = all. The stance and pelvis terms read them all.
+  double foot_contact_temperature = 1.0;  // latent standard deviation of the terms' draws
+  // The phase-locked foot terms (planted, speed error, lingering) read the first this many draws of
+  // the rollout only; 0 = all. The stance, speed-distribution, toe and pelvis terms read them all.
   int phase_locked_frames = 0;
-  // Training only, with foot_contact_rollout > 0: the share of a batch's windows (its first rows)
-  // whose draws start from the mean pose as history, as sampling without a prefix does (then a
-  // lead-in along the control's first step), instead of from the window's first tau frames. Such a
-  // start has no phase of the data's, so the phase-locked terms leave those rows out; the stance
-  // and pelvis terms read them. From the mean pose at 3 m/s the shipped model's legs stop cycling
-  // within a second or two, from a real run's first half second they do not (session 30). 0 = off.
+  // With foot_contact_rollout > 0: the share of a batch's windows (its first rows) whose draws
+  // start from the mean pose as history, as sampling without a prefix does (then a lead-in along the
+  // control's first step), instead of from the window's first tau frames. Such a start has no phase
+  // of the data's, so the phase-locked terms leave those rows out; the others read them. From the
+  // mean pose at 3 m/s the shipped model's legs stopped cycling within a second or two, from a real
+  // run's first half second they did not. 0 = off.
   double cold_start_fraction = 0.0;
-  // Training only: the heel terms above (planted, speed error, lingering, stance) also read the
-  // toes (each ankle's first child joint), so a toe that slides while its heel stands costs too.
-  bool toe_terms = false;
-  // Training only, with toe_terms: each toe's weight in those terms' means against a heel's 1.
-  // At 1 the drawn feet planted harder than real ones (walks' v_tol95 half the takes', the runs'
-  // contacts half as long again; session 33).
-  double toe_term_weight = 1.0;
-  // Training only, positions form, with foot_contact_rollout > 0: weight of the toe-slide term on
-  // every draw (PlantedHeelTerm::mean_excess_toe_slide: a toe within 1 cm of its floor moving faster
-  // than 0.1 m/s counts the excess, as the independent check counts foot skating; each row costs
-  // what its draws slide more than the data's frames of the same window). Continued training
-  // moved the slide from the heels to the toes, which the heel terms do not see (session 30).
-  // 0 = off. Logged as toe_slide_mps. Measured: at weights 1-10 over 40 draws it broke the gait
-  // within a few hundred steps (src/nn/moglow/README.md, session 31), and at 0.2 (session 34);
-  // kept for further work.
-  double toe_slide_weight = 0.0;
-  // Training only, with toe_slide_weight: the toe-slide term reads only the steps where the data's
-  // root (the control) moves slower than this (m/s), i.e. stops, starts and standing; 0 = every
-  // step. Why: on every step the term made the walking feet shuffle (session 39), while the slide
-  // that continued training brings is in the slow frames (toes under 0.6 m/s of pelvis speed).
-  double toe_slide_below_root_mps = 0.0;
-  // Whether training draws frames for the heel terms (any weight above is on).
-  bool heel_terms_on() const {
-    return foot_contact_weight > 0 || heel_speed_weight > 0 || lift_off_weight > 0 || pelvis_follow_weight > 0 ||
-           stance_weight > 0 || slow_share_weight > 0 || toe_slide_weight > 0 || speed_distribution_weight > 0;
-  }
+  // Whether training draws frames for the foot terms (any weight is on).
+  bool heel_terms_on() const { return foot.any_on(); }
 
   // Resolves preset, then overrides; throws mosyn::Error on an unknown key or bad value.
   static MoGlowOptions from_json(const nlohmann::json& config, const ModelContext& context);
@@ -405,12 +309,7 @@ class MoGlowImpl : public MotionModel {
   std::shared_ptr<std::mutex> inference_mutex_ = std::make_shared<std::mutex>();
   std::shared_ptr<const MoGlowInference> inference_;
   std::vector<std::pair<const void*, int64_t>> inference_key_;
-  PlantedHeelTerm planted_heels_;  // with options_.heel_terms_on()
-  // [num_content + 1, num_style + 1] float, 1 for the labels whose windows the lingering-heel term
-  // reads (label_pattern_table); undefined = every window.
-  torch::Tensor lift_off_table_;
-  // The same for heel_label_weights: each entry the product of its labels' factors (label_weight_table).
-  torch::Tensor heel_weight_table_;
+  FootObjectives foot_;  // the shared terms and their window weights, with options_.heel_terms_on()
   // The heel and pelvis terms of a batch on one set of draws (MoGlowOptions::foot_contact_weight,
   // heel_speed_weight, lift_off_weight, pelvis_follow_weight): scalars in m/s (m for the pelvis).
   // seen = the poses conditioned on [B, T, D], e the window's encoding, valid [B, T'] (undefined =
@@ -418,7 +317,7 @@ class MoGlowImpl : public MotionModel {
   struct HeelTerms {
     // all but planted_mps: undefined when their weight is 0
     torch::Tensor planted_mps, speed_error_mps, lingering_mps, pelvis_offset_m, missed_stance_mps, toe_slide_mps,
-        excess_slow_share, speed_distribution_mps;
+        excess_slow_share, speed_distribution_mps, bone_length_error_m;
   };
   // The draws the terms read: made [B, n, D] standardised frames tau..tau+n-1 and prev [B, n, D]
   // the frame before each (n: foot_contact_rollout's draws run free from the window's first tau

@@ -2,8 +2,8 @@
 #include <string>
 
 #include "core/error.h"
-#include "nn/label_pattern.h"
 #include "nn/moglow/moglow.h"
+#include "nn/objectives/foot_objectives.h"
 #include "nn/options_fields.h"
 
 namespace mosyn::nn {
@@ -37,118 +37,33 @@ std::string lookahead_problem(const MoGlowOptions& o) {
   return "";
 }
 
-// The heel terms on free-running draws (planted, speed error, lingering; their draws and label
-// weights): positions form only.
-OptionFields<MoGlowOptions> with_heel_terms(OptionFields<MoGlowOptions>&& fields) {
+// The shared foot objectives (nn/objectives/foot_objectives.h) and how MoGlow draws the frames they
+// read: free-running or teacher-forced draws, their temperature, the phase-locked span, cold starts.
+OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
   using O = MoGlowOptions;
   return std::move(fields)
-      .field("foot_contact_weight", &O::foot_contact_weight,
-             "training: weight of the planted-heel speed term (positions form)", at_least(0.0))
-      .written_if([](const O& o) { return o.foot_contact_weight > 0; })
+      .include(&O::foot, foot_objective_fields())
       .field("foot_contact_rollout", &O::foot_contact_rollout,
-             "frames of the planted-heel term generated from the model's own history; 0 = teacher-forced",
+             "frames of the foot terms' draws generated from the model's own history; 0 = teacher-forced",
              at_least(0))
       .written_if([](const O& o) { return o.foot_contact_rollout > 0; })
       .field("foot_contact_temperature", &O::foot_contact_temperature,
-             "latent standard deviation of the planted-heel term's draws", at_least(0.0))
+             "latent standard deviation of the foot terms' draws", at_least(0.0))
       .written_if([](const O& o) { return o.foot_contact_temperature != 1.0; })
-      .field("heel_speed_weight", &O::heel_speed_weight,
-             "training: weight of the heel-speed error on the planted-heel term's draws (positions form)",
-             at_least(0.0))
-      .written_if([](const O& o) { return o.heel_speed_weight > 0; })
-      .field("lift_off_weight", &O::lift_off_weight,
-             "training: weight of the lingering-heel term on the planted-heel term's draws (positions form)",
-             at_least(0.0))
-      .written_if([](const O& o) { return o.lift_off_weight > 0; })
-      .field("lift_off_labels", &O::lift_off_labels,
-             "training: the windows (CONTENT:STYLE patterns, * = any) the lingering-heel term reads; empty = all")
-      .written_if([](const O& o) { return !o.lift_off_labels.empty(); })
-      .rule([](const O& o) {
-        for (const std::string& key : o.lift_off_labels)
-          if (std::string problem = label_pattern_problem(key, "lift_off_labels"); !problem.empty()) return problem;
-        return std::string();
-      })
-      .field("heel_label_weights", &O::heel_label_weights,
-             "training: {\"CONTENT:STYLE\": factor} weights of the windows in the heel and pelvis terms")
-      .written_if([](const O& o) { return !o.heel_label_weights.empty(); })
-      .rule([](const O& o) {
-        for (const auto& [key, factor] : o.heel_label_weights)
-          if (std::string problem = label_factor_problem(key, factor, "heel_label_weights", /*zero_allowed=*/true);
-              !problem.empty())
-            return problem;
-        return std::string();
-      });
-}
-
-// The pelvis, stance, speed-distribution and toe terms on the same draws: positions form only.
-OptionFields<MoGlowOptions> with_foot_terms(OptionFields<MoGlowOptions>&& fields) {
-  using O = MoGlowOptions;
-  return with_heel_terms(std::move(fields))
-      .field("pelvis_follow_weight", &O::pelvis_follow_weight,
-             "training: weight of the pelvis-offset term on the planted-heel term's draws (positions form)",
-             at_least(0.0))
-      .written_if([](const O& o) { return o.pelvis_follow_weight > 0; })
-      .field("planted_mps", &O::planted_mps, "training: heel terms' planted threshold (m/s)", above_up_to(0.0, 1.0))
-      .written_if([](const O& o) { return o.planted_mps != kDefaultPlantedMps; })
-      .field("planted_speed_fraction", &O::planted_speed_fraction,
-             "training: heel terms' planted threshold max(planted_mps, this x root speed); 0 = planted_mps", at_least(0.0))
-      .written_if([](const O& o) { return o.planted_speed_fraction > 0; })
-      .field("stance_weight", &O::stance_weight,
-             "training: weight of the phase-free stance term on the planted-heel term's draws (positions form)",
-             at_least(0.0))
-      .written_if([](const O& o) { return o.stance_weight > 0; })
-      .field("stance_window_s", &O::stance_window_s, "training: the stance term's run of steps, seconds",
-             at_least(0.05))
-      .written_if([](const O& o) { return o.stance_weight > 0 || o.slow_share_weight > 0; })
-      .field("slow_share_weight", &O::slow_share_weight,
-             "training: weight of the slow-share term on the stance term's runs (positions form)", at_least(0.0))
-      .written_if([](const O& o) { return o.slow_share_weight > 0; })
-      .field("speed_distribution_weight", &O::speed_distribution_weight,
-             "training: weight of the phase-free speed-distribution term on the free-running draws (positions form)",
-             at_least(0.0))
-      .written_if([](const O& o) { return o.speed_distribution_weight > 0; })
-      .field("speed_distribution_cap_mps", &O::speed_distribution_cap_mps,
-             "training: the speed-distribution term's cap (m/s): faster steps count as this", above_up_to(0.0, 10.0))
-      .written_if([](const O& o) { return o.speed_distribution_cap_mps != PlantedHeelTerm::kSpeedDistributionCapMps; })
-      .field("speed_distribution_cap_fraction", &O::speed_distribution_cap_fraction,
-             "training: the speed-distribution term's cap max(cap_mps, this x root speed); 0 = cap_mps", at_least(0.0))
-      .written_if([](const O& o) { return o.speed_distribution_cap_fraction > 0; })
-      .field("stance_relative", &O::stance_relative,
-             "training: the stance term's bar is the data heel's slowest speed in each run, not the planted threshold")
-      .written_if([](const O& o) { return o.stance_relative; })
       .field("phase_locked_frames", &O::phase_locked_frames,
              "training: draws the planted, speed-error and lingering terms read; 0 = all", at_least(0))
       .written_if([](const O& o) { return o.phase_locked_frames > 0; })
       .field("cold_start_fraction", &O::cold_start_fraction,
-             "training: share of windows whose heel-term draws start from the mean pose", in_range(0.0, 1.0))
+             "training: share of windows whose foot-term draws start from the mean pose", in_range(0.0, 1.0))
       .written_if([](const O& o) { return o.cold_start_fraction > 0; })
       .rule([](const O& o) -> std::string {
         return o.cold_start_fraction > 0 && o.foot_contact_rollout < 1
                    ? "cold_start_fraction needs foot_contact_rollout > 0 (draws run free)"
                    : "";
       })
-      .field("toe_terms", &O::toe_terms, "training: the heel terms also read the toes")
-      .written_if([](const O& o) { return o.toe_terms; })
-      .field("toe_term_weight", &O::toe_term_weight, "training: each toe's weight in the heel terms (a heel's is 1)",
-             above_up_to(0.0, 1.0))
-      .written_if([](const O& o) { return o.toe_term_weight != 1.0; })
       .rule([](const O& o) -> std::string {
-        return o.toe_term_weight != 1.0 && !o.toe_terms ? "toe_term_weight needs toe_terms" : "";
-      })
-      .field("toe_slide_weight", &O::toe_slide_weight,
-             "training: weight of the toe-slide term on the free-running draws (positions form)", at_least(0.0))
-      .written_if([](const O& o) { return o.toe_slide_weight > 0; })
-      .rule([](const O& o) -> std::string {
-        return o.toe_slide_weight > 0 && o.foot_contact_rollout < 1
+        return o.foot.toe_slide_weight > 0 && o.foot_contact_rollout < 1
                    ? "toe_slide_weight needs foot_contact_rollout > 0 (draws run free)"
-                   : "";
-      })
-      .field("toe_slide_below_root_mps", &O::toe_slide_below_root_mps,
-             "training: the toe-slide term reads steps where the data's root is slower (m/s); 0 = all", at_least(0.0))
-      .written_if([](const O& o) { return o.toe_slide_below_root_mps > 0; })
-      .rule([](const O& o) -> std::string {
-        return o.toe_slide_below_root_mps > 0 && o.toe_slide_weight <= 0
-                   ? "toe_slide_below_root_mps needs toe_slide_weight > 0"
                    : "";
       });
 }

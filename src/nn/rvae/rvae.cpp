@@ -66,15 +66,7 @@ const OptionFields<RvaeOptions>& rvae_fields() {
           .written_if([](const O& o) { return o.latent_prior != "standard"; })
           .field("prior_hidden", &O::prior_hidden, "width of the conditional prior's hidden layer", at_least(1))
           .written_if([](const O& o) { return o.latent_prior != "standard"; })
-          .field("foot_contact_weight", &O::foot_contact_weight,
-                 "weight of the planted-heel speed term in training (positions form)", at_least(0.0))
-          .written_if([](const O& o) { return o.foot_contact_weight > 0; })
-          .field("heel_speed_weight", &O::heel_speed_weight,
-                 "weight of the heel-speed matching term in training (positions form)", at_least(0.0))
-          .written_if([](const O& o) { return o.heel_speed_weight > 0; })
-          .field("toe_slide_weight", &O::toe_slide_weight,
-                 "weight of the toe-slide term in training (positions form with toes)", at_least(0.0))
-          .written_if([](const O& o) { return o.toe_slide_weight > 0; })
+          .include(&O::foot, foot_objective_fields())
           .rule([](const O& o) {
             return o.latent_prior == "conditional" && o.free_running > 0
                        ? "a conditional latent prior draws every step's latent; free_running must be 0"
@@ -160,10 +152,7 @@ RvaeImpl::RvaeImpl(const RvaeOptions& options, const ModelContext& context)
     in = out;
   }
   kl_now_ = options.kl_weight;
-  if (options.foot_contact_weight > 0 || options.heel_speed_weight > 0 || options.toe_slide_weight > 0)
-    planted_heels_ = PlantedHeelTerm(context, "rvae");
-  if (options.toe_slide_weight > 0 && planted_heels_.toes().empty())
-    throw Error("rvae: toe_slide_weight needs toe joints (a joint below each ankle) in the skeleton");
+  foot_ = FootObjectives(context, options.foot, "rvae");
   if (options.latent_prior == "conditional") {
     prior_hidden = register_module("prior_hidden", torch::nn::Linear(z + options.control_channels.back(), options.prior_hidden));
     prior_out = register_module("prior_out", torch::nn::Linear(options.prior_hidden, 2 * z));
@@ -340,29 +329,6 @@ torch::Tensor RvaeImpl::l1_penalty(const torch::TensorOptions& options) {
   return options_.l1 * pen;
 }
 
-void RvaeImpl::add_heel_terms(const torch::Tensor& x_hat, const Batch& batch, torch::Tensor* total,
-                              LossTerms* out) const {
-  if (batch.pose.size(1) < 2) return;
-  // Training only, so that the validation loss stays the ELBO, comparable across runs.
-  if (options_.toe_slide_weight > 0) {
-    const auto excess = planted_heels_.mean_excess_toe_slide(x_hat, batch.pose, batch.control);
-    if (is_training()) *total = *total + options_.toe_slide_weight * excess;
-    out->terms["toe_slide_excess_mps"] = excess.detach();
-  }
-  if (options_.foot_contact_weight <= 0 && options_.heel_speed_weight <= 0) return;
-  const auto speeds = planted_heels_.speeds(x_hat, batch.pose, batch.control);  // once for both terms
-  if (options_.foot_contact_weight > 0) {
-    const auto planted = planted_heels_.mean_planted_speed(speeds);
-    if (is_training()) *total = *total + options_.foot_contact_weight * planted;
-    out->terms["planted_heel_mps"] = planted.detach();
-  }
-  if (options_.heel_speed_weight > 0) {
-    const auto error = planted_heels_.mean_speed_error(speeds);
-    if (is_training()) *total = *total + options_.heel_speed_weight * error;
-    out->terms["heel_speed_error_mps"] = error.detach();
-  }
-}
-
 LossTerms RvaeImpl::loss(const Batch& batch) {
   const auto& pose = batch.pose;
   const auto& control = batch.control;
@@ -393,7 +359,8 @@ LossTerms RvaeImpl::loss(const Batch& batch) {
   auto total = (recon + w * kl) / static_cast<double>(d);
   if (options_.l1 > 0 && is_training()) total = total + l1_penalty(total.options());
   LossTerms out;
-  add_heel_terms(x_hat, batch, &total, &out);
+  // The reconstruction takes the window's root steps as given, so both sides move with the data's.
+  foot_.add({x_hat, batch.control, pose, batch.control, {}, batch.content, batch.style}, is_training(), &total, &out);
   out.terms["loss"] = total;
   out.terms["recon"] = recon.detach();
   out.terms["kl"] = kl.detach();

@@ -29,7 +29,7 @@
 #include <string>
 #include <vector>
 
-#include "nn/foot_contact.h"
+#include "nn/objectives/foot_objectives.h"
 #include "nn/model.h"
 
 namespace mosyn::nn {
@@ -69,22 +69,13 @@ struct RvaeOptions {
   // restarting it at random; training minimises KL(q(z_k | x) || p(z_k | ...)). See the README.
   std::string latent_prior = "standard";
   int prior_hidden = 256;       // width of the conditional prior's hidden layer
-  // Weight of a foot-contact term (beyond the paper): the mean horizontal world speed (m/s) of the
-  // reconstructed heels over the frames where the data's heel is planted (slower than 0.15 m/s),
-  // added to the training loss. Positions form only. 0: off (the paper's loss).
-  double foot_contact_weight = 0.0;
-  // Weight of a heel-speed term (beyond the paper): the mean absolute difference (m/s) between
-  // the reconstructed and the data's heel speeds over the ground on every frame
-  // (PlantedHeelTerm::mean_speed_error), added to the training loss. Where foot_contact_weight
-  // only stops planted heels gliding, this also charges heels that linger slow around a contact
-  // while the data's already swing. Positions form only. 0: off.
-  double heel_speed_weight = 0.0;
-  // Weight of a toe-slide term (beyond the paper): how much more the reconstructed toes slide than
-  // the data's of the same window (PlantedHeelTerm::mean_excess_toe_slide: a toe within 1 cm of its
-  // floor moving faster than 0.1 m/s, the independent check's rule), added to the training loss.
-  // The heel terms leave the toes free: asked for the held-out takes' own styles, run 20's toes slid
-  // 1.3x the takes' (session 41). Positions form with toe joints only. 0: off.
-  double toe_slide_weight = 0.0;
+  // The shared foot objectives (beyond the paper; nn/objectives/foot_objectives.h), on the
+  // reconstruction of each training window against the window, with the data's root steps: planted
+  // heels (foot_contact_weight), heel speeds (heel_speed_weight), toe slide (toe_slide_weight: asked
+  // for the held-out takes' own styles, a model trained without it slid its toes 1.3x the takes'),
+  // and the others. Their keys sit at the top level of the config; every weight 0 = off (the
+  // paper's loss).
+  FootObjectiveOptions foot;
 
   int num_blocks() const { return static_cast<int>(encoder_channels.size()); }
   int reduction() const { return 1 << num_blocks(); }  // R: frames per reduced step
@@ -210,14 +201,12 @@ class RvaeImpl : public MotionModel {
                              const torch::Tensor& use_latent, int64_t frames) const;
   // The L1 weight penalty (options_.l1) over every weight matrix, training only.
   torch::Tensor l1_penalty(const torch::TensorOptions& options);
-  // The planted-heel and heel-speed terms (training only in total; logged in out either way).
-  void add_heel_terms(const torch::Tensor& x_hat, const Batch& batch, torch::Tensor* total, LossTerms* out) const;
 
   RvaeOptions options_;
   ModelContext context_;
   double kl_now_ = 1.0;
   int label_dim_ = 0;
-  PlantedHeelTerm planted_heels_;  // with options_.foot_contact_weight > 0
+  FootObjectives foot_;  // the shared foot terms (options_.foot)
 };
 TORCH_MODULE(Rvae);
 

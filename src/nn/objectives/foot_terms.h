@@ -1,8 +1,11 @@
-// The planted-heel term some families add to their training loss: how fast the heels a model
-// makes move over the ground on the frames where the data's heels are planted. Motion capture
-// of walking holds a planted heel within a few cm/s; a model that lets it glide there skates,
-// which a likelihood (or ELBO) per feature barely notices, as the glide is a few millimetres
-// per frame spread over a few features.
+// The foot terms the shared objectives add to a family's training loss (foot_objectives.h): how
+// fast the heels a model makes move over the ground on the frames where the data's heels are
+// planted, and their relatives (speed error, lift-off, stance, speed distribution, toe slide,
+// pelvis offset, bone lengths). Motion capture of walking holds a planted heel within a few cm/s;
+// a model that lets it glide there skates, which a likelihood (or ELBO) per feature barely
+// notices, as the glide is a few millimetres per frame spread over a few features.
+// The terms read the body's points through BodyPoints (body_points.h), so any pose form that
+// gives joint positions serves: positions, markers, rotations after forward kinematics.
 #pragma once
 
 #include <torch/types.h>
@@ -12,6 +15,7 @@
 #include <vector>
 
 #include "nn/context.h"
+#include "nn/objectives/body_points.h"
 
 namespace mosyn::nn {
 
@@ -20,45 +24,54 @@ namespace mosyn::nn {
 constexpr double kDefaultPlantedMps = 0.15;
 
 // What the heel terms read and when a data heel counts as planted.
-struct PlantedHeelOptions {
+struct FootTermOptions {
   // A data heel slower than this (m/s) is planted (walks: a few cm/s; a swinging foot, metres per
   // second). Real heels roll at 0.1-0.15 m/s at the ends of a stance, so at 0.15 the terms hold a
-  // drawn heel still over those frames too (session 36: MoGlow's drawn contacts outlast the takes').
+  // drawn heel still over those frames too (MoGlow's drawn contacts outlasted the takes').
   double planted_mps = kDefaultPlantedMps;
   // With f > 0 a data heel is planted below max(planted_mps, f x the root's ground speed into the
   // frame) instead: a running heel at 20 fps seldom falls under 0.15 m/s for more than one frame
   // (Bandai-Namco runs at 2.5 m/s and faster: 22% of the stances never), so at the fixed threshold
   // the runs barely reach the terms.
   double planted_speed_fraction = 0.0;
-  // The terms also read each ankle's first child joint (the toes) beside the heels, [.., 4] instead
-  // of [.., 2] below: the independent check's skating reads the toes, which slide while a heel
-  // stands (session 30).
+  // The terms also read the toes (BodyPoints::toe_points) beside the heels, [.., 4] instead of
+  // [.., 2] below: the independent check's skating reads the toes, which slide while a heel stands.
   bool with_toes = false;
-  // Each toe's weight against a heel (1) in the terms' means: with the toes at full weight the
-  // drawn feet planted harder than real ones (session 33).
+  // Each toe's weight against a heel (1) in the terms' means: with the toes at full weight MoGlow's
+  // drawn feet planted harder than real ones.
   double toe_weight = 1.0;
+  // The terms that need more than the heels and the pelvis, checked when the term is built: the
+  // toe-slide term (toes), the bone-length term (rigid pairs: positions or markers form).
+  bool toe_slide = false, bone_lengths = false;
 };
 
-class PlantedHeelTerm {
+class FootTerms {
  public:
-  PlantedHeelTerm() = default;
-  // From a positions-form context with the dataset's skeleton and statistics (a model built by
-  // mosyn train or load_run): the two ankles of core find_legs. family names the caller in errors.
-  // Throws mosyn::Error when the context cannot give the heels (or toes), planted_mps is not in
+  FootTerms() = default;
+  // From a context with the dataset's skeleton, layout and statistics (a model built by mosyn
+  // train or load_run; BodyPoints). family names the caller in errors. Throws mosyn::Error when the
+  // context cannot give the heels (or toes, or pairs, as options ask), planted_mps is not in
   // (0, 1], planted_speed_fraction is negative or toe_weight is not in (0, 1].
-  PlantedHeelTerm(const ModelContext& context, const std::string& family, const PlantedHeelOptions& options = {});
+  FootTerms(const ModelContext& context, const std::string& family, const FootTermOptions& options = {});
 
   // Horizontal speeds (m/s) of the made and the real heels from frame t-1 to t, t = 1..T-1:
-  // [B, T-1, 2] each. made, real [B, T, D] and control [B, T, C] standardised (the control of
-  // frame t is the root's step into it). Computed once, they serve every term below.
+  // [B, T-1, 2] each (4 with toes). made, real [B, T, D] and their controls [B, T, C] standardised
+  // (the control of frame t is the root's step into it): the made heels move with made_control
+  // (a family that generates its root passes its own steps), the real ones with real_control.
+  // Computed once, they serve every term below.
   // planted_below_mps: the planted threshold of each step (m/s), [B, T-1, 1] with
   // planted_speed_fraction, else a scalar tensor; speeds assembled by hand may leave it undefined
-  // (the term's planted_mps). root_mps: the root's ground speed into each frame (m/s, [B, T-1, 1],
-  // not differentiated); undefined when assembled by hand.
+  // (the term's planted_mps). root_mps: the data root's ground speed into each frame (m/s,
+  // [B, T-1, 1], from real_control, not differentiated); undefined when assembled by hand.
   struct HeelSpeeds {
     torch::Tensor made_mps, real_mps, planted_below_mps, root_mps;
   };
-  HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const;
+  HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& made_control, const torch::Tensor& real,
+                    const torch::Tensor& real_control) const;
+  // Both with the data's root steps (a family that takes the root as input).
+  HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const {
+    return speeds(made, control, real, control);
+  }
 
   // Each term below takes the speeds above, or made, real and control to compute them; valid
   // (optional [B, T-1], 0/1) leaves out steps into padded frames.
@@ -105,7 +118,7 @@ class PlantedHeelTerm {
   // 0 when no run counts (n < window included). Throws mosyn::Error when window < 1.
   // relative_to_data: the bar of each run is the real heel's slowest speed in the same run instead
   // of the planted threshold, so a heel that creeps just under the threshold through its stance
-  // (0.1-0.15 m/s: the drawn paths' slide of session 33) pays the difference from the data's plant.
+  // (0.1-0.15 m/s: MoGlow's drawn paths slid so) pays the difference from the data's plant.
   torch::Tensor mean_missed_stance(const HeelSpeeds& speeds, int64_t window, const torch::Tensor& valid = {},
                                    bool relative_to_data = false) const;
 
@@ -115,7 +128,7 @@ class PlantedHeelTerm {
   // positive; summed over the levels kSlowLevels x the planted threshold (0.15, 0.3, 0.6 m/s: a
   // walk's plant, a run's plant at 20 fps) and averaged over the runs (a fraction per level). A
   // share is soft for the made heel (a sigmoid of (level - speed) over kSlowSoftness x level), hard
-  // for the real one. Why (session 34): a term that charges only each run's slowest step is met as
+  // for the real one. Why: a term that charges only each run's slowest step is met as
   // well by a long stance as by a short one, and MoGlow's drawn walks held each contact a third
   // longer than the takes. speeds and valid as mean_missed_stance. A scalar, differentiable in made; 0 when no
   // run counts. Throws mosyn::Error when window < 1.
@@ -129,13 +142,13 @@ class PlantedHeelTerm {
   // speeds below the cap), averaged over rows and joints (toes at toe_weight). It asks the made
   // heel to be as slow as the data's for as many steps, wherever in the run they fall: a heel that
   // glides where the data's stands pays, and so does one that stays slow for longer than the
-  // data's; the swing (above the cap) costs nothing. Why (session 37): the phase-locked planted
+  // data's; the swing (above the cap) costs nothing. Why: the phase-locked planted
   // term, met under an uncertain phase by holding the heel down over a wider span, made MoGlow's
   // drawn contacts last a fifth to a quarter longer than the takes'. speeds [B, n, K] as from
   // speeds() (steps of one sequence along dim 1); valid (optional [B, n], 0/1) leaves steps out.
   // With cap_speed_fraction f > 0 each step's cap is max(cap_mps, f x speeds.root_mps) instead, the
   // same for the made and the real heel: a running heel's stance at 20 fps spans speeds a walk's
-  // swing reaches (session 37: at a fixed 0.6 m/s the runs' drawn stances softened, v_tol95 1.7x the
+  // swing reaches (at a fixed 0.6 m/s MoGlow's drawn runs' stances softened, v_tol95 1.7x the
   // takes'). A scalar, differentiable in made; 0 when no step is valid. Throws mosyn::Error when
   // cap_mps <= 0, cap_speed_fraction < 0, or f > 0 without speeds.root_mps.
   static constexpr double kSpeedDistributionCapMps = 0.6;
@@ -143,10 +156,10 @@ class PlantedHeelTerm {
                                         double cap_mps = kSpeedDistributionCapMps,
                                         double cap_speed_fraction = 0.0) const;
 
-  // Mean horizontal distance (m) between the made and the real pelvis (joint 0; x and z of the
-  // positions form, which is relative to the root's floor point and heading) over the frames of
-  // made, real [B, n, D] (standardised; frame i of one is frame i of the other); valid (optional
-  // [B, n], 0/1) leaves frames out. Drawn free, a body that falls behind its root shows here as a
+  // Mean horizontal distance (m) between the made and the real pelvis (BodyPoints::pelvis_point; x
+  // and z, relative to the root's floor point and heading) over the frames of made, real [B, n, D]
+  // (standardised; frame i of one is frame i of the other); valid (optional [B, n], 0/1) leaves
+  // frames out. Drawn free, a body that falls behind its root shows here as a
   // growing distance. A scalar, differentiable in made; 0 when no frame is valid.
   torch::Tensor mean_pelvis_offset_m(const torch::Tensor& made, const torch::Tensor& real,
                                      const torch::Tensor& valid = {}) const;
@@ -156,7 +169,7 @@ class PlantedHeelTerm {
   // lowest height over the sequence) that moves faster than kSlideMps counts max(0, speed -
   // kSlideMps), weighted by how low it is (a sigmoid of floor + kLowToeM - height over
   // kLowSoftnessM). The weight is not differentiated: the gradient slows a low toe and never lifts
-  // it (a term that could lift toes made the feet hover, session 31). frames [B, T, D] and control
+  // it (a term that could lift toes made MoGlow's feet hover). frames [B, T, D] and control
   // [B, T, C] standardised, one sequence per row (the control of frame t is the root's step into
   // it); valid (optional [B, T-1], 0/1) leaves steps out. Throws mosyn::Error when the skeleton has
   // no joint below an ankle.
@@ -169,29 +182,47 @@ class PlantedHeelTerm {
                                const torch::Tensor& valid = {}) const;
   // The toe-slide term: per row, how much more the made toes slide than the real ones of the same
   // window (max(0, made - real) of toe_slide_per_row; real toes slide too, about a tenth of the
-  // frames of a Bandai-Namco walk), averaged over rows (m/s). Charging all of it pushed the model
-  // off the data and wrecked the gait within 100 steps (session 31). made, real [B, T, D]; rows
-  // whose valid steps are all 0 are left out of the mean (0 when no row has one).
+  // frames of a Bandai-Namco walk), averaged over rows (m/s). Charging all of it pushed MoGlow
+  // off the data and wrecked the gait within 100 steps. made, real [B, T, D] with their controls
+  // as speeds(); rows whose valid steps are all 0 are left out of the mean (0 when no row has one).
+  torch::Tensor mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& made_control,
+                                      const torch::Tensor& real, const torch::Tensor& real_control,
+                                      const torch::Tensor& valid) const;
   torch::Tensor mean_excess_toe_slide(const torch::Tensor& made, const torch::Tensor& real,
-                                      const torch::Tensor& control, const torch::Tensor& valid = {}) const;
+                                      const torch::Tensor& control, const torch::Tensor& valid = {}) const {
+    return mean_excess_toe_slide(made, control, real, control, valid);
+  }
 
-  const std::vector<int>& heels() const { return heels_; }  // the joints read: heels, then toes
-  const std::vector<int>& toes() const { return toes_; }    // each ankle's first child; empty if none
+  // Mean absolute difference (m) between the lengths of the body's rigid pairs in made [B, T, D]
+  // (standardised) and their rest lengths (BodyPoints::pair_lengths_m: bones of the positions form,
+  // same-bone marker pairs of the markers form) over every (pair, frame); valid (optional [B, T],
+  // 0/1) leaves frames out. A model of joint positions is free to stretch a bone, and a stretched
+  // leg lets a foot stay put while the body moves on. A scalar, differentiable in made; 0 when no
+  // frame is valid. Throws mosyn::Error when the form has no pairs (rotations).
+  torch::Tensor mean_bone_length_error_m(const torch::Tensor& made, const torch::Tensor& valid = {}) const;
+
+  // The points read, as BodyPoints indices: the heels, then the toes with with_toes.
+  const std::vector<int>& heels() const { return heels_; }
+  const std::vector<int>& toes() const { return toes_; }  // empty when the body has none
+  const BodyPoints& body() const { return body_; }
+  double fps() const { return fps_; }
 
  private:
-  // Standardised pose [.., D] -> joint positions in metres; standardised control [.., C] -> raw, in opts.
+  // Standardised pose [B, T, D] -> the points' positions [B, T, 3 P] in metres (3k..3k+2: point k);
+  // standardised control [.., C] -> raw, in opts.
   torch::Tensor positions_m(const torch::Tensor& pose) const;
   torch::Tensor raw_control(const torch::Tensor& control, const torch::TensorOptions& opts) const;
   // speeds.planted_below_mps, or planted_mps_ as a scalar where it is undefined.
   torch::Tensor planted_threshold(const HeelSpeeds& speeds) const;
 
+  BodyPoints body_;
   std::vector<int> heels_;
   std::vector<int> toes_;
   double fps_ = 30.0;
   double planted_mps_ = kDefaultPlantedMps;
   double planted_speed_fraction_ = 0.0;
   torch::Tensor joint_weight_;  // [K] of the joints read (1 a heel, toe_weight a toe); undefined: all 1
-  torch::Tensor pose_mean_, pose_std_, control_mean_, control_std_;  // [D], [D], [C], [C]
+  torch::Tensor control_mean_, control_std_;  // [C], [C]
 };
 
 }  // namespace mosyn::nn

@@ -1,4 +1,4 @@
-// The planted-heel term (nn/foot_contact.h) by hand: a heel that moves 1 cm a frame at 30 fps
+// The planted-heel term (nn/objectives/foot_terms.h) by hand: a heel that moves 1 cm a frame at 30 fps
 // where the data's heel is planted glides at 0.3 m/s; the valid mask and the planted mask choose
 // which steps count.
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "nn/foot_contact.h"
+#include "nn/objectives/foot_terms.h"
 #include "nn_test_util.h"
 
 using namespace mosyn;
@@ -25,12 +25,12 @@ torch::Tensor left_heel_moving(const Batch& still, const Skeleton& s, double met
 
 }  // namespace
 
-TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
+TEST(FootTerms, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch real = nn::testing::standing_batch(s, ctx, frames);  // both heels planted throughout
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   ASSERT_EQ(term.heels().size(), 2u);
   const int64_t left_x = 3 * s.find("Foot_L");  // sideways (x) feature of the left ankle
   // The left heel slides 1 cm sideways per frame over the second half; the right stays put.
@@ -51,19 +51,19 @@ TEST(PlantedHeelTerm, MeanSpeedOfMadeHeelsWhereDataHeelsArePlanted) {
   term.mean_planted_speed(made_var, real.pose, real.control).backward();
   EXPECT_GT(made_var.grad()[0][frames - 1][left_x].abs().item<double>(), 0.0);
   EXPECT_EQ(made_var.grad()[0][0][left_x].item<double>(), 0.0);
-  EXPECT_THROW(PlantedHeelTerm(nn::testing::small_context(), "test"), Error);
-  EXPECT_THROW(PlantedHeelTerm().mean_planted_speed(made, real.pose, real.control), Error);
+  EXPECT_THROW(FootTerms(nn::testing::small_context(), "test"), Error);
+  EXPECT_THROW(FootTerms().mean_planted_speed(made, real.pose, real.control), Error);
 }
 
 // The heel-speed error (mean_speed_error) by hand: |made - real| speed over every (heel, step),
 // so, unlike the planted term, a made heel that stays put while the data's heel moves costs as
 // much as the reverse.
-TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
+TEST(FootTerms, MeanSpeedErrorChargesGlideAndLingerAlike) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch still = nn::testing::standing_batch(s, ctx, frames);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   const int64_t left_x = 3 * s.find("Foot_L");
   const auto moving = left_heel_moving(still, s, 0.01);  // the left heel at 0.3 m/s over the steps into frames 10..19
   const double expected = 10 * 0.3 / (19 * 2);
@@ -89,12 +89,12 @@ TEST(PlantedHeelTerm, MeanSpeedErrorChargesGlideAndLingerAlike) {
 // m/s), a made heel that stays put costs the planted threshold, 0.15 m/s; one at 0.06 m/s costs
 // 0.09; one as fast as the threshold or the data's costs nothing, nor does anything where the
 // data's heel is planted.
-TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
+TEST(FootTerms, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch still = nn::testing::standing_batch(s, ctx, frames);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   const int64_t left_x = 3 * s.find("Foot_L");
   const auto lifted = left_heel_moving(still, s, 0.01);  // 0.3 m/s at 30 fps
   const double threshold = kDefaultPlantedMps;
@@ -110,7 +110,7 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
   EXPECT_NEAR(term.mean_lingering_speed(still.pose, lifted, still.control, first_half).item<double>(), 0.0, 1e-6);
   // The speeds computed once give every term the same value as computing them per term.
   const auto slow = left_heel_moving(still, s, 0.002);
-  const PlantedHeelTerm::HeelSpeeds speeds = term.speeds(slow, lifted, still.control);
+  const FootTerms::HeelSpeeds speeds = term.speeds(slow, lifted, still.control);
   EXPECT_EQ(term.mean_lingering_speed(speeds).item<double>(),
             term.mean_lingering_speed(slow, lifted, still.control).item<double>());
   EXPECT_EQ(term.mean_speed_error(speeds, first_half).item<double>(),
@@ -125,12 +125,12 @@ TEST(PlantedHeelTerm, MeanLingeringSpeedChargesAHeelStillWhereTheDataLifts) {
 
 // The pelvis term (mean_pelvis_offset_m) by hand: a made pelvis 3 cm sideways and 4 cm back of the
 // data's over the second half of the frames is 5 cm off there and 0 before; height is ignored.
-TEST(PlantedHeelTerm, MeanPelvisOffsetIsTheHorizontalDistanceToTheData) {
+TEST(FootTerms, MeanPelvisOffsetIsTheHorizontalDistanceToTheData) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch still = nn::testing::standing_batch(s, ctx, frames);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   ASSERT_EQ(s.parents[0], -1);  // the pelvis: joint 0, features 0..2 (x, y up, z)
   auto behind = still.pose.clone();
   for (int64_t t = frames / 2; t < frames; ++t) {
@@ -175,13 +175,13 @@ Batch heels_behind_a_moving_root(const Batch& still, const Skeleton& s, double r
 // planted_speed_fraction by hand: behind a root at 3 m/s (0.1 m a frame at 30 fps) a heel at
 // 0.2 m/s is planted under max(0.15, 0.1 x 3) = 0.3 m/s, not under the fixed 0.15; behind a
 // root at 1.2 m/s the threshold stays 0.15. The lingering term uses the same threshold.
-TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
+TEST(FootTerms, PlantedThresholdRisesWithTheRootSpeed) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const Batch still = nn::testing::standing_batch(s, ctx, 12);
-  PlantedHeelOptions scaled_options;
+  FootTermOptions scaled_options;
   scaled_options.planted_speed_fraction = 0.1;
-  const PlantedHeelTerm fixed(ctx, "test"), scaled(ctx, "test", scaled_options);
+  const FootTerms fixed(ctx, "test"), scaled(ctx, "test", scaled_options);
   const Batch running = heels_behind_a_moving_root(still, s, 0.1, 0.1 - 0.2 / 30);  // heels at 0.2 m/s
   const auto speeds = scaled.speeds(running.pose, running.pose, running.control);
   ASSERT_TRUE(speeds.planted_below_mps.defined());
@@ -199,22 +199,22 @@ TEST(PlantedHeelTerm, PlantedThresholdRisesWithTheRootSpeed) {
   const Batch planted = heels_behind_a_moving_root(still, s, 0.1, 0.1);
   EXPECT_NEAR(scaled.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.3, 1e-4);
   EXPECT_NEAR(fixed.mean_lingering_speed(planted.pose, lifted.pose, lifted.control).item<double>(), 0.15, 1e-4);
-  PlantedHeelOptions negative;
+  FootTermOptions negative;
   negative.planted_speed_fraction = -0.1;
-  EXPECT_THROW(PlantedHeelTerm(ctx, "test", negative), Error);
+  EXPECT_THROW(FootTerms(ctx, "test", negative), Error);
 }
 
 // planted_mps by hand: behind a root at 1.2 m/s a data heel rolling at 0.1 m/s is planted under the
 // default 0.15 m/s and lifted under 0.08, so a made heel sliding at 0.3 m/s there costs the planted
 // term 0.3 or nothing, and a made heel standing still costs the lingering term nothing or 0.08.
 // The speed-scaled threshold floors at planted_mps.
-TEST(PlantedHeelTerm, PlantedThresholdIsAnOption) {
+TEST(FootTerms, PlantedThresholdIsAnOption) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const Batch still = nn::testing::standing_batch(s, ctx, 12);
-  PlantedHeelOptions low;
+  FootTermOptions low;
   low.planted_mps = 0.08;
-  const PlantedHeelTerm fixed(ctx, "test"), lowered(ctx, "test", low);
+  const FootTerms fixed(ctx, "test"), lowered(ctx, "test", low);
   const Batch rolling = heels_behind_a_moving_root(still, s, 0.04, 0.04 - 0.1 / 30);
   const Batch sliding = heels_behind_a_moving_root(still, s, 0.04, 0.04 - 0.3 / 30);
   const Batch standing = heels_behind_a_moving_root(still, s, 0.04, 0.04);
@@ -226,19 +226,19 @@ TEST(PlantedHeelTerm, PlantedThresholdIsAnOption) {
   EXPECT_NEAR(lowered.mean_lingering_speed(standing.pose, rolling.pose, control).item<double>(), 0.08, 1e-4);
   // The stance term: a made heel whose slowest step is 0.1 m/s misses the lowered bar by 0.02 where
   // the data's heel stands, and meets the default one.
-  const auto stance = [&](const PlantedHeelTerm& term) {
+  const auto stance = [&](const FootTerms& term) {
     return term.mean_missed_stance(term.speeds(rolling.pose, standing.pose, control), 5).item<double>();
   };
   EXPECT_NEAR(stance(fixed), 0.0, 1e-6);
   EXPECT_NEAR(stance(lowered), 0.02, 1e-4);
-  PlantedHeelOptions scaled = low;
+  FootTermOptions scaled = low;
   scaled.planted_speed_fraction = 0.01;  // 0.012 m/s at 1.2 m/s: under the floor
-  const PlantedHeelTerm floored(ctx, "test", scaled);
+  const FootTerms floored(ctx, "test", scaled);
   EXPECT_NEAR(floored.speeds(sliding.pose, rolling.pose, control).planted_below_mps.max().item<double>(), 0.08, 1e-6);
   for (double bad : {0.0, -0.1, 1.5, std::nan("")}) {
-    PlantedHeelOptions o;
+    FootTermOptions o;
     o.planted_mps = bad;
-    EXPECT_THROW(PlantedHeelTerm(ctx, "test", o), Error);
+    EXPECT_THROW(FootTerms(ctx, "test", o), Error);
   }
 }
 
@@ -247,16 +247,16 @@ TEST(PlantedHeelTerm, PlantedThresholdIsAnOption) {
 // first is 0.9 m/s (0.75 above 0.15), and in the second it stops at step 3, two steps after the
 // data's, which costs nothing. Heel 1's data stay planted: the made heel's slowest steps are 0.5,
 // 0.6, 0.7 and 0.8 m/s. The gradient reaches each counted run's slowest step only.
-TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
+TEST(FootTerms, MissedStanceChargesAHeelThatNeverStopsInARun) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   const auto opts = torch::dtype(torch::kFloat64);
   auto made = torch::tensor({1.0, 0.9, 1.1, 0.1, 1.0, 1.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0}, opts)
                   .reshape({1, 2, 6}).transpose(1, 2).contiguous().requires_grad_(true);  // [1, 6, 2]
   const auto real = torch::tensor({1.0, 0.05, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, opts)
                         .reshape({1, 2, 6}).transpose(1, 2).contiguous();
-  const PlantedHeelTerm::HeelSpeeds speeds{made, real, {}};
+  const FootTerms::HeelSpeeds speeds{made, real, {}};
   const auto missed = term.mean_missed_stance(speeds, 3);
   EXPECT_NEAR(missed.item<double>(), (0.75 + 0.35 + 0.45 + 0.55 + 0.65) / 6, 1e-12);
   missed.backward();
@@ -269,7 +269,7 @@ TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
   const auto valid = torch::tensor({1.0, 1.0, 1.0, 1.0, 1.0, 0.0}, opts).reshape({1, 6});
   EXPECT_NEAR(term.mean_missed_stance(speeds, 3, valid).item<double>(), (0.75 + 0.35 + 0.45 + 0.55) / 5, 1e-12);
   // A speed-scaled threshold of 0.5 m/s: heel 0's first run 0.4 above, heel 1's 0, 0.1, 0.2, 0.3.
-  const PlantedHeelTerm::HeelSpeeds scaled{made, real, torch::full({1, 6, 1}, 0.5, opts)};
+  const FootTerms::HeelSpeeds scaled{made, real, torch::full({1, 6, 1}, 0.5, opts)};
   EXPECT_NEAR(term.mean_missed_stance(scaled, 3).item<double>(), (0.4 + 0.1 + 0.2 + 0.3) / 6, 1e-12);
   // Fewer steps than a run: nothing counts. A run of no steps is an error.
   EXPECT_NEAR(term.mean_missed_stance(speeds, 7).item<double>(), 0.0, 1e-12);
@@ -286,10 +286,10 @@ TEST(PlantedHeelTerm, MissedStanceChargesAHeelThatNeverStopsInARun) {
 // than L (sigmoid((L - v) / 0.2 L)) minus the real heel's hard share), summed over levels, averaged
 // over counted runs. Heel 0 stands for three steps where the data's plants for one (charged), heel
 // 1 creeps at 0.2 m/s where the data's stands (its share is below the data's: free).
-TEST(PlantedHeelTerm, SlowShareChargesAHeelSlowLongerThanTheData) {
+TEST(FootTerms, SlowShareChargesAHeelSlowLongerThanTheData) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   const auto opts = torch::dtype(torch::kFloat64);
   const std::vector<std::vector<double>> made_v = {{0.0, 0.0, 0.0, 1.0, 1.0, 1.0}, {0.2, 0.2, 0.2, 0.2, 0.2, 0.2}};
   const std::vector<std::vector<double>> real_v = {{1.0, 0.05, 1.0, 1.0, 1.0, 1.0}, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
@@ -299,7 +299,7 @@ TEST(PlantedHeelTerm, SlowShareChargesAHeelSlowLongerThanTheData) {
     return torch::tensor(flat, opts).reshape({1, 2, 6}).transpose(1, 2).contiguous();  // [1, 6, 2]
   };
   auto made = as_tensor(made_v).requires_grad_(true);
-  const PlantedHeelTerm::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}};
   const int window = 3;
   double sum = 0;
   int counted = 0;
@@ -332,10 +332,10 @@ TEST(PlantedHeelTerm, SlowShareChargesAHeelSlowLongerThanTheData) {
 // The speed-distribution term by hand: each heel's steps clamped at the cap and sorted, the made
 // and the real compared pair by pair. A made heel slow for the data's number of steps at another
 // phase costs nothing; one slow for longer costs the difference; left-out steps drop out of both.
-TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
+TEST(FootTerms, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   const auto opts = torch::dtype(torch::kFloat64);
   const auto as_tensor = [&](const std::vector<std::vector<double>>& v) {  // heels x steps -> [1, 6, 2]
     std::vector<double> flat;
@@ -346,7 +346,7 @@ TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
   // Heel 0: the data's two slow steps two steps later (no cost); heel 1: slow for four steps.
   const std::vector<std::vector<double>> made_v = {{1.5, 3.0, 2.0, 0.05, 0.05, 0.9}, {0.0, 0.1, 0.2, 0.2, 2.0, 2.0}};
   auto made = as_tensor(made_v).requires_grad_(true);
-  const PlantedHeelTerm::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}};
   const double cap = 0.6;
   // By hand, heel 1 sorted and clamped: made 0, 0.1, 0.2, 0.2, 0.6, 0.6; real 0.1, 0.3, 0.4, 0.6, 0.6, 0.6.
   const double heel1 = (0.1 + 0.2 + 0.2 + 0.4 + 0 + 0) / 6;
@@ -367,7 +367,7 @@ TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
   // A speed-scaled cap: the root at 2 m/s, f = 0.5 -> cap 1 m/s. Heel 0 sorted: made 0.05, 0.05,
   // 0.9, 1, 1, 1 against 0.05, 0.05, 1, 1, 1, 1; heel 1: made 0, 0.1, 0.2, 0.2, 1, 1 against 0.1,
   // 0.3, 0.4, 1, 1, 1. With f = 0.1 the fixed cap (0.6) is the larger.
-  const PlantedHeelTerm::HeelSpeeds at_speed{made, as_tensor(real_v), {}, torch::full({1, 6, 1}, 2.0, opts)};
+  const FootTerms::HeelSpeeds at_speed{made, as_tensor(real_v), {}, torch::full({1, 6, 1}, 2.0, opts)};
   EXPECT_NEAR(term.mean_sorted_speed_error(at_speed, {}, cap, 0.5).item<double>(), (0.1 / 6 + 1.3 / 6) / 2, 1e-12);
   EXPECT_NEAR(term.mean_sorted_speed_error(at_speed, {}, cap, 0.1).item<double>(), (0.0 + heel1) / 2, 1e-12);
   EXPECT_THROW(term.mean_sorted_speed_error(at_speed, {}, cap, -0.1), Error);
@@ -375,20 +375,21 @@ TEST(PlantedHeelTerm, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
 
 // with_toes: the terms read each ankle's first child (the toes) beside the heels, so a toe that
 // slides where the data's stands costs as a heel does, averaged over four joints instead of two.
-TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
+TEST(FootTerms, WithToesReadsEachAnklesChild) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch real = nn::testing::standing_batch(s, ctx, frames);
-  PlantedHeelOptions toes;
+  FootTermOptions toes;
   toes.with_toes = true;
-  const PlantedHeelTerm heels(ctx, "test"), both(ctx, "test", toes);
+  const FootTerms heels(ctx, "test"), both(ctx, "test", toes);
   ASSERT_EQ(both.heels().size(), 4u);
+  const auto& joints = both.body().point_joints();  // the skeleton joint of each point
   for (int k = 0; k < 2; ++k) {
     EXPECT_EQ(both.heels()[k], heels.heels()[k]);
-    EXPECT_EQ(both.heels()[2 + k], s.children(heels.heels()[k]).front());
+    EXPECT_EQ(joints[both.heels()[2 + k]], s.children(joints[heels.heels()[k]]).front());
   }
-  EXPECT_EQ(s.joint_names[both.heels()[2]].rfind("Toes", 0), 0u);
+  EXPECT_EQ(s.joint_names[joints[both.heels()[2]]].rfind("Toes", 0), 0u);
   auto made = left_heel_moving(real, s, 0.01);  // the left heel at 0.3 m/s over the second half
   EXPECT_EQ(both.speeds(made, real.pose, real.control).made_mps.size(2), 4);
   EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 4), 1e-4);
@@ -398,16 +399,16 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
   EXPECT_NEAR(both.mean_planted_speed(made, real.pose, real.control).item<double>(), 2 * 10 * 0.3 / (19 * 4), 1e-4);
   EXPECT_NEAR(heels.mean_planted_speed(made, real.pose, real.control).item<double>(), 10 * 0.3 / (19 * 2), 1e-4);
   // The toes at weight 0.25: a weighted mean, each toe's steps counting a quarter of a heel's.
-  PlantedHeelOptions light_toes = toes;
+  FootTermOptions light_toes = toes;
   light_toes.toe_weight = 0.25;
-  const PlantedHeelTerm light(ctx, "test", light_toes);
+  const FootTerms light(ctx, "test", light_toes);
   const double weighted = (10 * 0.3 + 0.25 * 10 * 0.3) / (19 * 2 + 0.25 * 19 * 2);
   EXPECT_NEAR(light.mean_planted_speed(made, real.pose, real.control).item<double>(), weighted, 1e-4);
   EXPECT_NEAR(light.mean_speed_error(made, real.pose, real.control).item<double>(), weighted, 1e-4);
   for (double bad : {0.0, 1.5}) {
-    PlantedHeelOptions o = toes;
+    FootTermOptions o = toes;
     o.toe_weight = bad;
-    EXPECT_THROW(PlantedHeelTerm(ctx, "test", o), Error);
+    EXPECT_THROW(FootTerms(ctx, "test", o), Error);
   }
 }
 
@@ -415,17 +416,18 @@ TEST(PlantedHeelTerm, WithToesReadsEachAnklesChild) {
 // height over the sequence), a toe moving 1 cm a frame at 30 fps costs 0.3 - 0.1 m/s times
 // sigmoid(1 cm / 3 mm); lifted 5 cm it costs almost nothing, as does one under 0.1 m/s; the
 // gradient slows the toe and never lifts it.
-TEST(PlantedHeelTerm, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
+TEST(FootTerms, ToeSlideChargesALowToeMovingFasterThanTheCheckAllows) {
   const Skeleton s = make_synthetic_biped();
   const ModelContext ctx = nn::testing::positions_context(s);
   const int frames = 20;
   const Batch real = nn::testing::standing_batch(s, ctx, frames);
-  const PlantedHeelTerm term(ctx, "test");
+  const FootTerms term(ctx, "test");
   ASSERT_EQ(term.toes().size(), 2u);
-  EXPECT_EQ(term.toes()[0], s.children(term.heels()[0]).front());
+  const auto& joints = term.body().point_joints();
+  EXPECT_EQ(joints[term.toes()[0]], s.children(joints[term.heels()[0]]).front());
   const int64_t toe_x = 3 * s.find("Toes_L"), toe_y = toe_x + 1;
   const auto low = [](double above_floor_m) {
-    return 1.0 / (1.0 + std::exp(-(PlantedHeelTerm::kLowToeM - above_floor_m) / PlantedHeelTerm::kLowSoftnessM));
+    return 1.0 / (1.0 + std::exp(-(FootTerms::kLowToeM - above_floor_m) / FootTerms::kLowSoftnessM));
   };
   EXPECT_NEAR(term.mean_toe_slide(real.pose, real.control).item<double>(), 0.0, 1e-6);
   auto sliding = real.pose.clone();  // the left toe slides over the second half (steps 9..18)
