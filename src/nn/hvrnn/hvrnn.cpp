@@ -44,6 +44,7 @@ HvrnnImpl::HvrnnImpl(const HvrnnOptions& o, const ModelContext& context)
     : MotionModel("Hvrnn"), options_(o), context_(context) {
   if (context.pose_dim < 1 || context.control_dim < 1) throw Error("hvrnn: the context needs pose and control dims");
   geometry_ = hvrnn::geometry_for(context, o);
+  foot_ = FootObjectives(context, o.foot, "hvrnn");
   label_dim_ = context.num_content + context.num_style;
   const int w = word_dim(), s = o.state * o.state_layers, a = o.label_code, raw = o.word_length * frame_dim();
   if (o.word_coder) {
@@ -357,6 +358,11 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
     total = total + w_cl * cl;
   }
   LossTerms terms;
+  // The reconstruction's feet move with the root steps it reconstructs (the model makes its root).
+  const int64_t d = context_.pose_dim, c = context_.control_dim;
+  foot_.add({pred.narrow(-1, 0, d), pred.narrow(-1, d, c), frames.narrow(-1, 0, d), frames.narrow(-1, d, c), mask,
+             batch.content, batch.style},
+            is_training(), &total, &terms);
   terms.terms["loss"] = total;
   terms.terms["recon"] = recon.detach();
   terms.terms["kl"] = kl.detach();

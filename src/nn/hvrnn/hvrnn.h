@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "nn/model.h"
+#include "nn/objectives/foot_objectives.h"
 
 namespace mosyn::nn {
 
@@ -86,6 +87,11 @@ struct HvrnnOptions {
   double word_drop = 0.3;        // final probability a teacher-forced word is replaced by the model's own
   double word_drop_ramp = 0.8;   // fraction of training over which it grows linearly from 0
   double spread_floor = 1e-4;    // added to every softplus spread
+  // The shared foot objectives (not in the paper; nn/objectives/foot_objectives.h) on each training
+  // window's reconstruction, its feet after forward kinematics moving with the root steps the model
+  // reconstructs: drawn free, the paper's loss left the feet skating 5-6x real walks. Their keys sit
+  // at the top level of the config; every weight 0 = off (the paper).
+  FootObjectiveOptions foot;
 
   static HvrnnOptions from_json(const nlohmann::json& config);
   nlohmann::json to_json() const;
@@ -152,7 +158,8 @@ class HvrnnImpl : public MotionModel {
   double current_word_drop() const;
 
   // Terms per valid frame: "recon" (hierarchical geodesic + root squared error, or squared error
-  // without geometry), "kl", "validity", "classifier", "geodesic" (mean angle, rad), weights; "loss".
+  // without geometry), "kl", "validity", "classifier", "geodesic" (mean angle, rad), weights; "loss";
+  // the foot objectives' terms when on (FootObjectiveOptions: planted_heel_mps, ...).
   LossTerms loss(const Batch& batch) override;
   // Clips shorter than the window train too (the paper's sequences of up to 200 frames from clip
   // starts), at least one word long; padding is masked out of every term.
@@ -234,6 +241,7 @@ class HvrnnImpl : public MotionModel {
   int label_dim_ = 0;
   double progress_ = 1.0;  // fraction of training done (1 outside training)
   std::shared_ptr<ClassifierImpl> classifier_;  // frozen, loaded lazily; not a submodule
+  FootObjectives foot_;                          // the shared foot terms (options_.foot)
 };
 TORCH_MODULE(Hvrnn);
 

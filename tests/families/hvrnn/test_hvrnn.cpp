@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "nn/hvrnn/hvrnn.h"
 #include "nn/kinematics.h"
+#include "foot_test_util.h"
 #include "nn_test_util.h"
 
 using namespace mosyn;
@@ -482,3 +483,34 @@ TEST(HvrnnClassifierLoss, AMissingClassifierRunIsAnErrorWhenTheTermIsUsed) {
 }
 
 }  // namespace
+
+// The shared foot objectives (HvrnnOptions::foot) on the reconstruction of a walk in the
+// rotations form, its feet after forward kinematics moving with the root steps it reconstructs:
+// logged by name, added in training on top of the loss the same draws make with the terms off.
+TEST(Hvrnn, FootObjectivesOnTheReconstruction) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::form_context(s, data::PoseForm::kRotations);
+  const Batch batch = nn::testing::walk_batch(s, ctx, 24);
+  auto loss_of = [&](const nlohmann::json& cfg, bool training) {
+    torch::manual_seed(3);
+    HvrnnImpl m(HvrnnOptions::from_json(cfg), ctx);
+    m.train(training);
+    torch::manual_seed(4);
+    return m.loss(batch);
+  };
+  const auto on = tiny({{"foot_contact_weight", 3.0}, {"heel_speed_weight", 1.0}, {"toe_slide_weight", 1.0},
+                        {"pelvis_follow_weight", 0.5}});
+  EXPECT_EQ(HvrnnOptions::from_json(on).to_json().at("foot_contact_weight"), 3.0);
+  const LossTerms off = loss_of(tiny(), true), with = loss_of(on, true), eval = loss_of(on, false);
+  EXPECT_EQ(off.terms.count("planted_heel_mps"), 0u);
+  const double planted = with.terms.at("planted_heel_mps").item<double>();
+  const double toe = with.terms.at("toe_slide_mps").item<double>();
+  const double pelvis = with.terms.at("pelvis_offset_m").item<double>();
+  const double heel = with.terms.at("heel_speed_error_mps").item<double>();
+  EXPECT_GT(heel, 0.0);  // an untrained model's feet do not move as the data's
+  EXPECT_NEAR(with.loss().item<double>(), off.loss().item<double>() + 3.0 * planted + heel + toe + 0.5 * pelvis,
+              1e-4);
+  EXPECT_EQ(eval.terms.count("planted_heel_mps"), 1u);  // logged outside training too
+  // Without the skeleton the terms cannot find the feet, and say so.
+  EXPECT_THROW(HvrnnImpl(HvrnnOptions::from_json(on), labelled_small_context()), Error);
+}
