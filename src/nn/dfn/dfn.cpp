@@ -21,6 +21,7 @@ DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
   future = register_module("future", DfnFuture(options));
   const int label_dim = options.labels ? context.num_content + context.num_style : 0;
   dyn = register_module("dyn", DfnDynamics(options, label_dim));
+  foot_ = FootObjectives(context, options.foot, "dfn");
 }
 
 std::vector<LabelInput> DfnImpl::label_inputs() const {
@@ -122,6 +123,7 @@ LossTerms DfnImpl::autoencoder_loss(const Batch& batch) {
   auto vel_mse = (d.control - batch.control).pow(2).mean();
   auto total = options_.pose_weight * pose_mse + options_.velocity_weight * vel_mse;
   LossTerms out;
+  total = total + foot_term(batch, d.pose, d.control, out);
   if (ae->head() == DfnPoseHead::kRotationsFk) {
     auto target = ae->feature_positions(batch.pose).detach();
     auto fk = (d.positions - target).pow(2).mean();
@@ -132,6 +134,21 @@ LossTerms DfnImpl::autoencoder_loss(const Batch& batch) {
   out.terms["ae_pose"] = pose_mse.detach();
   out.terms["ae_velocity"] = vel_mse.detach();
   return out;
+}
+
+torch::Tensor DfnImpl::foot_term(const Batch& batch, const torch::Tensor& made, const torch::Tensor& made_control,
+                                 LossTerms& out) {
+  auto total = torch::zeros({}, made.options());
+  if (!foot_.on()) return total;
+  const int64_t n = made.size(1);
+  torch::Tensor valid;  // a short clip's padding left out
+  if (batch.frames.defined())
+    valid = torch::arange(n, torch::dtype(torch::kInt64).device(made.device())).unsqueeze(0) <
+            batch.frames.to(made.device()).to(torch::kInt64).unsqueeze(1);
+  foot_.add({made, made_control, batch.pose.narrow(1, 0, n), batch.control.narrow(1, 0, n), valid, batch.content,
+             batch.style},
+            is_training(), &total, &out);
+  return total;
 }
 
 LossTerms DfnImpl::future_loss(const Batch& batch) {
@@ -268,7 +285,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   std::pair<torch::Tensor, torch::Tensor> state{torch::zeros({b, options_.state}, opts),
                                                 torch::zeros({b, options_.state}, opts)};
   auto nll_z = torch::zeros({b}, opts), nll_m = nll_z, kl_s = nll_z, kl_f = nll_z, z_se = nll_z;
-  std::vector<torch::Tensor> hs, ss, ps_mean, ps_logvar;
+  std::vector<torch::Tensor> hs, ss, ps_mean, ps_logvar, decoded;  // decoded: codes for the foot terms
   for (int64_t t = 0; t < l; ++t) {
     const auto h_t = state.second;
     auto z_t = z.select(1, t), m_t = m.select(1, t);
@@ -281,6 +298,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
       torch::NoGradGuard no_grad;  // the code's squared error, for the log only
       z_se = z_se + (dyn->decode_z(s, h_t) - z_t).pow(2).mean(-1);
     }
+    if (foot_.on()) decoded.push_back(dyn->decode_z(s, h_t));
     nll_m = nll_m - dyn->log_p_m(m_t, f, h_t);
     kl_s = kl_s + diagonal_gaussian_kl(qs.mean, qs.logvar, ps.mean, ps.logvar);
     kl_f = kl_f + diagonal_gaussian_kl(qf.mean, qf.logvar, pf.mean, pf.logvar);
@@ -296,6 +314,11 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   LossTerms out;
   auto rollout =
       options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, labels, out) : torch::zeros({}, opts);
+  torch::Tensor foot = torch::zeros({}, opts);
+  if (foot_.on()) {
+    const auto x = ae->decode(torch::stack(decoded, 1));  // the window's first l frames
+    foot = foot_term(batch, x.pose, x.control, out);
+  }
   auto td_kl = torch::zeros({}, opts), td_nll = torch::zeros({}, opts), td_logvar = torch::zeros({}, opts);
   const int64_t max_delta = std::min<int64_t>(options_.td_max, l - 1);
   if (max_delta >= 1) {
@@ -325,7 +348,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   auto ks_loss = free > 0 ? torch::clamp_min(ks, free) : ks, kf_loss = free > 0 ? torch::clamp_min(kf, free) : kf;
   out.terms["loss"] =
       nz + options_.m_weight * nm + options_.kl_weight * (ks_loss + kf_loss) + options_.td_weight * (td_kl + td_nll) +
-      options_.rollout_speed_weight * rollout;
+      options_.rollout_speed_weight * rollout + foot;
   out.terms["nll_z"] = nz.detach();
   out.terms["z_mse"] = (z_se * per).mean();
   out.terms["nll_m"] = nm.detach();

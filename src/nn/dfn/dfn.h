@@ -29,6 +29,7 @@
 
 #include "nn/gaussian.h"
 #include "nn/model.h"
+#include "nn/objectives/foot_objectives.h"
 
 namespace mosyn::nn {
 
@@ -113,6 +114,12 @@ struct DfnOptions {
   // `--init-from` with stage_steps [0, 0, N]).
   std::vector<double> stage_fractions = {0.3, 0.2, 0.5};
   std::vector<int> stage_steps = {};
+  // The shared foot objectives (an addition to the paper; nn/objectives/foot_objectives.h), on the
+  // frames the model decodes for each training window with the root steps it decodes for them:
+  // the autoencoder's reconstruction in the autoencoder stage, the frames decoded from the
+  // posterior's codes (decode_z(s_t, h_t)) in the dynamics stage. Drawn free, the paper's losses
+  // left the feet skating 5-6x real walks. Keys at the top level of the config; 0 = off (the paper).
+  FootObjectiveOptions foot;
 
   int velocity_code() const { return code - pose_code; }
   static DfnOptions from_json(const nlohmann::json& config);
@@ -237,7 +244,8 @@ class DfnImpl : public MotionModel {
 
   // The current stage's objective (per frame, standardised space); before any stage (-1) the sum
   // of all three. Terms: "loss", "ae_pose", "ae_velocity", "ae_fk", "future_rec", "future_smooth",
-  // "nll_z", "z_mse", "nll_m", "kl_s", "kl_f", "td_kl", "td_nll" as the stage computes them.
+  // "nll_z", "z_mse", "nll_m", "kl_s", "kl_f", "td_kl", "td_nll" as the stage computes them; the foot
+  // objectives' terms (DfnOptions::foot) in the autoencoder and dynamics stages when on.
   LossTerms loss(const Batch& batch) override;
   LossTerms autoencoder_loss(const Batch& batch);
   LossTerms future_loss(const Batch& batch);
@@ -286,9 +294,15 @@ class DfnImpl : public MotionModel {
   // posterior pass reached; adds its log terms to out.
   torch::Tensor rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
                                    const torch::Tensor& labels, LossTerms& out);
+  // The foot objectives (DfnOptions::foot) on made poses and root steps [B, n, D], [B, n, C]
+  // (standardised, decoded for the window's first n frames) against those frames: the weighted sum
+  // (0 outside training or when off); the terms are logged in out.
+  torch::Tensor foot_term(const Batch& batch, const torch::Tensor& made, const torch::Tensor& made_control,
+                          LossTerms& out);
   int stage_ = -1;
   DfnOptions options_;
   ModelContext context_;
+  FootObjectives foot_;
 };
 TORCH_MODULE(Dfn);
 

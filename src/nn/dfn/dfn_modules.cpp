@@ -86,7 +86,8 @@ const OptionFields<DfnOptions>& dfn_fields() {
           .field("stage_fractions", &O::stage_fractions, "fractions of the steps per stage")
           .field("stage_steps", &O::stage_steps,
                  "absolute steps per stage (overrides the fractions; 0 skips a stage)")
-          .rule(stage_problem);
+          .rule(stage_problem)
+          .include(&O::foot, foot_objective_fields());
   return fields;
 }
 

@@ -21,6 +21,7 @@
 #include "nn/kinematics.h"
 #include "nn/registry.h"
 #include "nn/training/train.h"
+#include "foot_test_util.h"
 #include "nn_test_util.h"
 
 using namespace mosyn;
@@ -651,4 +652,37 @@ TEST(Dfn, LabelsConditionTheDynamicsAndAWarmStartFromAnUnlabelledRunStartsAsIt) 
   bad.content = torch::tensor({0, 3, 1}, torch::kInt64);
   EXPECT_THROW(labelled->sample(bad), Error);
   fs::remove_all(dir);
+}
+
+// The shared foot objectives (DfnOptions::foot) on a walk in the rotations form: on the
+// autoencoder's reconstruction in its stage, on the frames decoded from the posterior's codes in the
+// dynamics stage, each with the root steps the model decodes; logged by name and added in
+// training on top of the loss the same draws make with the terms off.
+TEST(Dfn, FootObjectivesInTheAutoencoderAndDynamicsStages) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::form_context(s, data::PoseForm::kRotations);
+  const Batch batch = nn::testing::walk_batch(s, ctx, 16);
+  auto on = tiny();
+  on["foot_contact_weight"] = 2.0;
+  on["pelvis_follow_weight"] = 1.0;
+  for (int stage : {0, 2}) {
+    auto loss_of = [&](const nlohmann::json& cfg) {
+      auto m = make(ctx, cfg);
+      m->begin_stage(stage, m->training_stages(TrainStageDefaults{})[stage]);
+      m->train(true);
+      torch::manual_seed(4);
+      return m->loss(batch);
+    };
+    const LossTerms off = loss_of(tiny()), with = loss_of(on);
+    EXPECT_EQ(off.terms.count("planted_heel_mps"), 0u);
+    const double planted = with.terms.at("planted_heel_mps").item<double>();
+    const double pelvis = with.terms.at("pelvis_offset_m").item<double>();
+    EXPECT_GT(planted + pelvis, 0.0) << "stage " << stage;
+    EXPECT_NEAR(with.loss().item<double>(), off.loss().item<double>() + 2.0 * planted + pelvis, 1e-4)
+        << "stage " << stage;
+  }
+  // The future stage has no frames of its own to read: nothing logged.
+  auto m = make(ctx, on);
+  m->begin_stage(1, m->training_stages(TrainStageDefaults{})[1]);
+  EXPECT_EQ(m->loss(batch).terms.count("planted_heel_mps"), 0u);
 }
