@@ -46,7 +46,8 @@ const OptionFields<MojoOptions>& mojo_fields() {
           .field("projection", &O::projection, "recursive projection onto the skeleton (marker form)")
           .field("projection_iterations", &O::projection_iterations, "LM iterations per projected frame", at_least(1))
           .field("projection_prior", &O::projection_prior, "pose-change prior of the projection", at_least(0.0))
-          .field("projection_threads", &O::projection_threads, "threads of the projection (0 = all)", at_least(0));
+          .field("projection_threads", &O::projection_threads, "threads of the projection (0 = all)", at_least(0))
+          .include(&O::foot, foot_objective_fields());
   return fields;
 }
 
@@ -97,6 +98,7 @@ MojoImpl::MojoImpl(const MojoOptions& options, const ModelContext& context)
     : MotionModel("Mojo"), options_(options), context_(context) {
   frame_dim_ = context.pose_dim + context.control_dim;
   if (context.pose_dim < 1) throw Error("mojo: pose_dim must be >= 1");
+  foot_ = FootObjectives(context, options.foot, "mojo");
   const int h = options.hidden, z = options.latent, dc = frame_dim_;
   past_rnn = register_module("past_rnn", torch::nn::GRU(torch::nn::GRUOptions(dc, h).batch_first(true)));
   future_rnn = register_module("future_rnn", torch::nn::GRU(torch::nn::GRUOptions(dc, h).batch_first(true)));
@@ -232,10 +234,11 @@ LossTerms MojoImpl::loss(const Batch& batch) {
   const int64_t f = std::min<int64_t>(options_.future, t - p);
   auto x = torch::cat({pose, batch.control.to(pose.options())}, -1);
   if (stage_ == 1 && options_.dlow_batch > 0 && x.size(0) > options_.dlow_batch) x = x.narrow(0, 0, options_.dlow_batch);
-  return stage_ == 1 ? dlow_loss(x.narrow(1, 0, p), x.narrow(1, p, f)) : cvae_loss(x.narrow(1, 0, p), x.narrow(1, p, f));
+  return stage_ == 1 ? dlow_loss(x.narrow(1, 0, p), x.narrow(1, p, f))
+                     : cvae_loss(x.narrow(1, 0, p), x.narrow(1, p, f), batch);
 }
 
-LossTerms MojoImpl::cvae_loss(const torch::Tensor& past, const torch::Tensor& future) {
+LossTerms MojoImpl::cvae_loss(const torch::Tensor& past, const torch::Tensor& future, const Batch& batch) {
   const int64_t f = future.size(1);
   auto h_x = encode_past(past);
   auto [mean, logvar] = encode_future(future, h_x);
@@ -257,6 +260,12 @@ LossTerms MojoImpl::cvae_loss(const torch::Tensor& past, const torch::Tensor& fu
   out.terms["velocity"] = (velocity.mean() / scale).detach();
   out.terms["kl"] = kl.mean().detach();
   out.terms["kl_term"] = kl_term.mean().detach();
+  // The future after the last observed frame, its markers moving with the root steps it predicts.
+  const int64_t d = context_.pose_dim, c = frame_dim_ - d;
+  const auto made = with_last(y_hat), real = with_last(future);
+  foot_.add({made.narrow(-1, 0, d), made.narrow(-1, d, c), real.narrow(-1, 0, d), real.narrow(-1, d, c), {},
+             batch.content, batch.style},
+            is_training(), &out.terms["loss"], &out);
   return out;
 }
 

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "nn/model.h"
+#include "nn/objectives/foot_objectives.h"
 #include "nn/mojo/projection.h"
 
 namespace mosyn::nn {
@@ -75,6 +76,12 @@ struct MojoOptions {
   int projection_iterations = 10;
   double projection_prior = 1e-4;
   int projection_threads = 0;    // 0 = hardware concurrency
+  // The shared foot objectives (not in the paper; nn/objectives/foot_objectives.h: heels LHEE /
+  // RHEE, toes LTOE / RTOE, pelvis the waist markers) in stage "cvae", on each window's predicted
+  // future after its last observed frame, the markers moving with the root steps the model predicts:
+  // drawn free, the paper's loss left the feet skating 5-6x real walks. Keys at the top level of
+  // the config; every weight 0 = off (the paper). DLow's stage leaves them out (the CVAE is frozen).
+  FootObjectiveOptions foot;
 
   static MojoOptions from_json(const nlohmann::json& config);
   nlohmann::json to_json() const;
@@ -92,7 +99,7 @@ class MojoImpl : public MotionModel {
   std::vector<TrainingStage> training_stages(const TrainStageDefaults& defaults) const override;
   void begin_stage(int index, const TrainingStage& stage) override;
   // Stage "cvae": terms "loss" (per feature and future frame), "recon", "velocity", "kl" (nats per
-  // sequence), "kl_term". Stage "dlow": "loss", "dlow_recon", "dlow_kl", "dlow_div".
+  // sequence), "kl_term", and the foot objectives' terms when on (MojoOptions::foot). Stage "dlow": "loss", "dlow_recon", "dlow_kl", "dlow_div".
   LossTerms loss(const Batch& batch) override;
   SampleOutput sample(const SampleRequest& request) override;
 
@@ -127,7 +134,8 @@ class MojoImpl : public MotionModel {
   torch::nn::ModuleList dlow_heads{nullptr};
 
  private:
-  LossTerms cvae_loss(const torch::Tensor& past, const torch::Tensor& future);
+  // batch: the window's labels, for the foot objectives' label weights.
+  LossTerms cvae_loss(const torch::Tensor& past, const torch::Tensor& future, const Batch& batch);
   LossTerms dlow_loss(const torch::Tensor& past, const torch::Tensor& future);
   bool can_project() const;
   MojoOptions options_;
@@ -136,6 +144,7 @@ class MojoImpl : public MotionModel {
   int stage_ = 0;
   torch::Tensor dlow_trained_;  // buffer: 1 once the DLow stage has begun
   mojo::ProjectionTiming last_timing_;
+  FootObjectives foot_;  // the shared foot terms (options_.foot)
 };
 TORCH_MODULE(Mojo);
 

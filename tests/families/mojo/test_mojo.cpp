@@ -17,6 +17,7 @@
 #include "nn/mojo/mojo.h"
 #include "nn/mojo/projection.h"
 #include "nn/registry.h"
+#include "foot_test_util.h"
 
 using namespace mosyn;
 using namespace mosyn::nn;
@@ -316,4 +317,32 @@ TEST(MojoProjection, SamplingWithMarkersProjectsEveryFrame) {
   EXPECT_EQ(timing.calls, 8L);
   ASSERT_EQ(m->last_sample_timings().size(), 1u);
   EXPECT_EQ(m->last_sample_timings()[0].rows, 16L);
+}
+
+// The shared foot objectives (MojoOptions::foot) in stage "cvae" on a walk's markers at 15 fps:
+// the heel, toe and waist markers of the predicted future after the last observed frame, moving
+// with the root steps the model predicts; logged by name, added in training on top of the loss
+// the same draws make with the terms off.
+TEST(Mojo, FootObjectivesOnThePredictedFuture) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::form_context(s, data::PoseForm::kMarkers, 0.3, 15.0);
+  const Batch batch = nn::testing::walk_batch(s, ctx, 12);
+  auto loss_of = [&](nlohmann::json cfg, bool training) {
+    auto m = make(cfg, ctx);
+    m->train(training);
+    torch::manual_seed(4);
+    return m->loss(batch);
+  };
+  auto on = family_info("mojo").tiny_config;
+  on["foot_contact_weight"] = 2.0;
+  on["bone_length_weight"] = 1.0;
+  on["heel_speed_weight"] = 0.5;
+  const LossTerms off = loss_of(family_info("mojo").tiny_config, true), with = loss_of(on, true);
+  EXPECT_EQ(off.terms.count("planted_heel_mps"), 0u);
+  const double planted = with.terms.at("planted_heel_mps").item<double>();
+  const double bones = with.terms.at("bone_length_error_m").item<double>();
+  const double heel = with.terms.at("heel_speed_error_mps").item<double>();
+  EXPECT_GT(bones, 0.0);  // an untrained model's markers do not hold their distances
+  EXPECT_NEAR(with.loss().item<double>(), off.loss().item<double>() + 2.0 * planted + bones + 0.5 * heel, 1e-4);
+  EXPECT_EQ(loss_of(on, false).terms.count("bone_length_error_m"), 1u);  // logged outside training too
 }
