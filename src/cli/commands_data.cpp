@@ -112,7 +112,7 @@ void add_prepare_command(CLI::App* data_cmd, Action* action) {
       ->required()
       ->check(CLI::ExistingDirectory);
   prep->add_option("--out,-o", o.output_dir, "dataset directory to write")->required();
-  prep->add_option("--form", a->form, "pose form: rotations (joint rotations, writes BVH) or positions")
+  prep->add_option("--form", a->form, "pose form: rotations (joint rotations, writes BVH), positions (joint positions) or markers (41 CMU surface markers, MOJO)")
       ->capture_default_str();
   prep->add_option("--fps", o.fps, "target frame rate (default: keep the files' own)");
   prep->add_option("--root-smoothing", o.root_smoothing_s,

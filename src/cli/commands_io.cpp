@@ -196,7 +196,7 @@ void add_convert_command(CLI::App& app, Action* action) {
                 "NPY float32 [T,41,3] or CSV 'frame,marker,x,y,z' (Bandai-Namco and CMU joint names)");
   cmd->add_flag("--metres", o->metres, "scale positions to metres (units guessed from the skeleton's size)");
   cmd->add_flag("--control", o->control,
-                "write the root control as CSV 'dx,dz,dtheta' per frame (metres, radians; the input of "
+                "write the root control as CSV 't_s,dx,dz,dtheta' per frame (metres, radians; the input of "
                 "`mosyn sample --control`)");
   cmd->callback([action, o] { *action = [o] { run_convert(*o); }; });
 }

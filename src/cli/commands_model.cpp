@@ -364,7 +364,7 @@ void add_train_command(CLI::App& app, Action* action) {
   train->add_flag("--overwrite", o.overwrite, "replace an existing run in --out");
   train->footer(
       "Data-parallel: run N copies with RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT set (torchrun --no-python, srun, "
-      "or by hand); --batch is the global batch, rank 0 writes the run (README: Training on several processes).");
+      "or by hand); --batch is the global batch, rank 0 writes the run (docs/training.md: Training on several processes or machines).");
   train->callback([action, t] { *action = [t] { run_train(*t); }; });
 }
 

@@ -45,8 +45,9 @@ Look at motion:
   mosyn metrics walks/*.bvh --reference takes/*.bvh   # footsteps, foot skating, bone lengths
 Convert:
   mosyn convert take.bvh take.glb                # glTF for Blender and game engines (also .npy, .csv, .bvh)
-Train your own (docs in README.md):
-  mosyn data prepare mocap/ --out data/loco --contents walk,run --fps 20 --mirror
+Train your own (docs/training.md):
+  mosyn data prepare mocap/ --out data/loco --form positions --contents walk,run --fps 20 --mirror \
+      --root-smoothing 0.7 --stats-from models/moglow-lookahead   # its features, to continue its weights
   mosyn train moglow --data data/loco --out runs/loco --init-from models/moglow-lookahead
   mosyn eval runs/loco --data data/loco          # beside the held-out takes
   mosyn compare runs/loco models/moglow-lookahead --data data/loco --out compared
@@ -77,5 +78,13 @@ int main(int argc, char** argv) {
   std::string models = "Commands that run models (see mosyn <command> --help):";
   for (const auto& c : heavy) models += " " + c;
   app.footer(models);
+  // A misspelt command would otherwise read as a stray argument (and with --help exit 0).
+  if (argv[1][0] != '-') {
+    const auto known = app.get_subcommands([&](CLI::App* sub) { return sub->get_name() == argv[1]; });
+    if (known.empty()) {
+      std::cerr << "mosyn: error: unknown command '" << argv[1] << "' (`mosyn` alone lists every command)\n";
+      return 2;
+    }
+  }
   return mosyn::cli::run_app(app, action, argc, argv);
 }

@@ -497,7 +497,7 @@ void write_dataset(const std::string& dir, const DatasetInfo& info, const Datase
 
 Dataset Dataset::open(const std::string& dir) {
   const fs::path root(dir);
-  if (!fs::is_directory(root)) throw Error(dir + ": dataset directory not found");
+  if (!fs::is_directory(root)) throw Error(dir + ": dataset directory not found (make one from BVH files with `mosyn data prepare`)");
   const std::string info_path = (root / "dataset.json").string();
   const std::string stats_path = (root / "stats.json").string();
   for (const std::string& p : {info_path, stats_path, (root / "train.bin").string(), (root / "val.bin").string()})

@@ -366,7 +366,7 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   run.trainable = create_trainable(run.family, run.config["model"], run.context);
   run.trainable->to(device);
   const std::string ckpt = (fs::path(run_dir) / options.checkpoint).string();
-  if (!fs::exists(ckpt)) throw Error(ckpt + ": checkpoint not found");
+  if (!fs::exists(ckpt)) throw Error(ckpt + ": checkpoint not found (a shipped model holds only checkpoint.pt; a run keeps checkpoint-STEP.pt files with keep_checkpoints)");
   run.step = load_checkpoint(ckpt, *run.trainable, nullptr, device).step;
   run.model = std::dynamic_pointer_cast<MotionModel>(run.trainable);
   if (run.model) run.traits = run.model->traits();

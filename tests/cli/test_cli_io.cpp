@@ -34,6 +34,9 @@ TEST(CliTest, UsageErrorsExitWithTwo) {
   for (const char* example : {"mosyn sample models/", "mosyn serve models/", "mosyn convert ", "mosyn train ", "mosyn eval "})
     EXPECT_NE(bare.out.find(example), std::string::npos) << example;
   EXPECT_EQ(run_mosyn("no-such-command").exit_code, 2);
+  const auto misspelt = run_mosyn("trian --help");  // not the overview with exit 0
+  EXPECT_EQ(misspelt.exit_code, 2);
+  EXPECT_NE(misspelt.err.find("unknown command 'trian'"), std::string::npos) << misspelt.err;
   EXPECT_EQ(run_mosyn("info").exit_code, 2);
   EXPECT_EQ(run_mosyn("convert a.bvh b.bvh --no-such-flag").exit_code, 2);
   EXPECT_EQ(run_mosyn("--help").exit_code, 0);
