@@ -95,9 +95,17 @@ Clip to_clip(const BvhFile& bvh);
 // equivalent Euler solutions, each angle unwrapped by multiples of 360 degrees, the one closest
 // to the previous frame's is used, so angles never flip by 360 degrees or switch solution for a
 // frame: between two frames they move by at most sqrt(2) times the angle the joint turns over the
-// cosine of the middle angle (what following the rotation continuously takes), checked on every
-// shared BVH file (tests/io/test_bvh_real_data.cpp). Source files themselves need not keep this
-// (the CMU subset's 05_08.bvh flips a hand joint for 9 frames; written back it turns the short way).
+// cosine of the middle angle (what following the rotation continuously takes). At gimbal lock
+// (middle angle +-90 degrees) the change of the determined sum or difference of the outer angles
+// is split evenly between them. Frame 0 takes the source's own angles where the template holds
+// this very motion (as `mosyn convert` passes it), else the principal solution (middle angle
+// within +-90 degrees). Where a joint turns more than 45 degrees in one frame (a T-pose first
+// frame, a capture glitch) the angles cannot follow and jump anyway; there each angle changes as
+// the source's does (within +-180 degrees), else the principal solution is taken, unwrapped, so
+// a written file has no jump its source lacks (01_01.bvh's left forearm keeps 0 -> -36.8, not
+// 0 -> -143.2 on the other branch for the whole take). Checked on every shared BVH file
+// (tests/io/test_bvh_real_data.cpp). Source files themselves need not be continuous (the CMU
+// subset's 05_08.bvh flips a hand joint for 9 frames; written back it turns the short way).
 //
 // Without a template the layout is CMU-like: the root has "Xposition Yposition Zposition
 // Zrotation Yrotation Xrotation", every other joint "Zrotation Yrotation Xrotation", plus
