@@ -22,6 +22,7 @@ DfnImpl::DfnImpl(const DfnOptions& options, const ModelContext& context)
   const int label_dim = options.labels ? context.num_content + context.num_style : 0;
   dyn = register_module("dyn", DfnDynamics(options, label_dim));
   foot_ = FootObjectives(context, options.foot, "dfn");
+  rollout_foot_ = FootObjectives(context, options.rollout_foot(), "dfn");
 }
 
 std::vector<LabelInput> DfnImpl::label_inputs() const {
@@ -242,18 +243,38 @@ DfnImpl::WindowSpeeds DfnImpl::window_speeds(const torch::Tensor& control, const
   return w;
 }
 
-torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
-                                          const torch::Tensor& labels, LossTerms& out) {
+torch::Tensor DfnImpl::rollout_foot_term(const Batch& batch, const torch::Tensor& made,
+                                         const torch::Tensor& made_control, LossTerms& out) {
+  auto total = torch::zeros({}, made.options());
+  const int64_t r = std::min(made.size(1), batch.pose.size(1)), start = batch.pose.size(1) - r;
+  torch::Tensor valid;  // steps into a short clip's padding left out
+  if (batch.frames.defined())
+    valid = (torch::arange(start, start + r, torch::dtype(torch::kInt64).device(made.device())).unsqueeze(0) <
+             batch.frames.to(made.device()).to(torch::kInt64).unsqueeze(1));
+  LossTerms terms;
+  rollout_foot_.add({made.narrow(1, 0, r), made_control.narrow(1, 0, r), batch.pose.narrow(1, start, r),
+                     batch.control.narrow(1, start, r), valid, batch.content, batch.style},
+                    is_training(), &total, &terms);
+  for (const auto& [name, value] : terms.terms) out.terms["rollout_" + name] = value;
+  return total;
+}
+
+torch::Tensor DfnImpl::rollout_terms(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
+                                     const torch::Tensor& labels, LossTerms& out) {
   const bool plain = ae->head() == DfnPoseHead::kPlain;
-  std::vector<torch::Tensor> controls, poses;
+  std::vector<torch::Tensor> controls, poses, features;
   for (int r = 0; r < options_.rollout_frames; ++r) {  // as step_stream, reparameterised
     const auto h_t = state.second;
     const auto [s, f] = prior_latents(*dyn, dyn->prior_f(h_t, labels), h_t, labels, reparameterise);
     auto x = ae->decode(dyn->decode_z(s, h_t));
     controls.push_back(x.control);
     poses.push_back(plain ? x.pose : x.positions);
+    features.push_back(x.pose);
     state = dyn->step(state, s, f, labels);
   }
+  auto foot = rollout_foot_.on() ? rollout_foot_term(batch, torch::stack(features, 1), torch::stack(controls, 1), out)
+                                 : torch::zeros({}, state.second.options());
+  if (options_.rollout_speed_weight <= 0) return foot;
   const WindowSpeeds gen = window_speeds(torch::stack(controls, 1), torch::stack(poses, 1));
   WindowSpeeds real;
   {
@@ -271,7 +292,7 @@ torch::Tensor DfnImpl::rollout_speed_term(const Batch& batch, std::pair<torch::T
   out.terms["rollout_body_mps"] = gen.body_mps.mean().detach();
   out.terms["real_root_mps"] = real.root_mps.mean();
   out.terms["real_body_mps"] = real.body_mps.mean();
-  return term;
+  return options_.rollout_speed_weight * term + foot;
 }
 
 LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
@@ -312,8 +333,8 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
     state = dyn->step(state, s_next, f_next, labels);
   }
   LossTerms out;
-  auto rollout =
-      options_.rollout_speed_weight > 0 ? rollout_speed_term(batch, state, labels, out) : torch::zeros({}, opts);
+  auto rollout = options_.rollout_speed_weight > 0 || rollout_foot_.on() ? rollout_terms(batch, state, labels, out)
+                                                                         : torch::zeros({}, opts);
   torch::Tensor foot = torch::zeros({}, opts);
   if (foot_.on()) {
     const auto x = ae->decode(torch::stack(decoded, 1));  // the window's first l frames
@@ -348,7 +369,7 @@ LossTerms DfnImpl::dynamics_loss(const Batch& batch) {
   auto ks_loss = free > 0 ? torch::clamp_min(ks, free) : ks, kf_loss = free > 0 ? torch::clamp_min(kf, free) : kf;
   out.terms["loss"] =
       nz + options_.m_weight * nm + options_.kl_weight * (ks_loss + kf_loss) + options_.td_weight * (td_kl + td_nll) +
-      options_.rollout_speed_weight * rollout + foot;
+      rollout + foot;
   out.terms["nll_z"] = nz.detach();
   out.terms["z_mse"] = (z_se * per).mean();
   out.terms["nll_m"] = nm.detach();

@@ -99,6 +99,18 @@ struct DfnOptions {
   // within that factor of its window's speed, not match it, and draws keep their spread inside
   // the band. 1 = exact matching (the term as first trained).
   double rollout_speed_tolerance = 1.0;
+  // Phase-free foot objectives on the same open-loop rollout (an addition, README): the shared
+  // unit's stance (each heel stops once in every run in which the data's does), speed-distribution
+  // (heels as slow as the data's for as many steps) and toe-slide terms, the rollout_frames drawn
+  // from the priors against the window's last rollout_frames real frames, with the root steps the
+  // rollout decodes. Phase-free because a draw's footsteps need not fall where the data's do; the
+  // terms on posterior frames (foot) did not reach the priors: continued 750 steps with them, drawn
+  // walks still skated 4.4x the takes'. 0 = off.
+  double rollout_stance_weight = 0.0;
+  double rollout_speed_distribution_weight = 0.0;
+  double rollout_toe_slide_weight = 0.0;
+  // foot's thresholds with only the three rollout weights above on.
+  FootObjectiveOptions rollout_foot() const;
   // Content and style labels as conditions (beyond the paper, which conditions on the prefix
   // alone; README): one-hot labels (nn/label_features.h) enter the priors p(f | h, c), p(s | m, h, c),
   // the posteriors q(f | h, m, c), q(s | h, z, m, c) and the state transition GRU(h, [s, f, c]), so
@@ -290,10 +302,14 @@ class DfnImpl : public MotionModel {
 
  private:
   void check_batch(const Batch& batch, int64_t min_frames) const;
-  // The open-loop speed term of one batch (DfnOptions::rollout_speed_weight) from the state the
-  // posterior pass reached; adds its log terms to out.
-  torch::Tensor rollout_speed_term(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
-                                   const torch::Tensor& labels, LossTerms& out);
+  // The open-loop terms of one batch from the state the posterior pass reached: the speed term
+  // (DfnOptions::rollout_speed_weight) and the phase-free foot terms (rollout_foot_), weighted and
+  // summed; adds their log terms to out (the foot terms' names prefixed "rollout_").
+  torch::Tensor rollout_terms(const Batch& batch, std::pair<torch::Tensor, torch::Tensor> state,
+                              const torch::Tensor& labels, LossTerms& out);
+  // The rollout's foot terms: made [B, R, D] and made_control [B, R, C] against the window's last R frames.
+  torch::Tensor rollout_foot_term(const Batch& batch, const torch::Tensor& made, const torch::Tensor& made_control,
+                                  LossTerms& out);
   // The foot objectives (DfnOptions::foot) on made poses and root steps [B, n, D], [B, n, C]
   // (standardised, decoded for the window's first n frames) against those frames: the weighted sum
   // (0 outside training or when off); the terms are logged in out.
@@ -303,6 +319,7 @@ class DfnImpl : public MotionModel {
   DfnOptions options_;
   ModelContext context_;
   FootObjectives foot_;
+  FootObjectives rollout_foot_;  // DfnOptions::rollout_foot()
 };
 TORCH_MODULE(Dfn);
 

@@ -76,6 +76,16 @@ const OptionFields<DfnOptions>& dfn_fields() {
                  at_least(2))
           .field("rollout_speed_tolerance", &O::rollout_speed_tolerance,
                  "dynamics stage: speed ratio within which that term is zero (1 = exact matching)", at_least(1.0))
+          .field("rollout_stance_weight", &O::rollout_stance_weight,
+                 "dynamics stage: weight of the stance term on the open-loop rollout (0 = off)", at_least(0.0))
+          .written_if([](const O& o) { return o.rollout_stance_weight > 0; })
+          .field("rollout_speed_distribution_weight", &O::rollout_speed_distribution_weight,
+                 "dynamics stage: weight of the heel speed-distribution term on the open-loop rollout (0 = off)",
+                 at_least(0.0))
+          .written_if([](const O& o) { return o.rollout_speed_distribution_weight > 0; })
+          .field("rollout_toe_slide_weight", &O::rollout_toe_slide_weight,
+                 "dynamics stage: weight of the toe-slide term on the open-loop rollout (0 = off)", at_least(0.0))
+          .written_if([](const O& o) { return o.rollout_toe_slide_weight > 0; })
           .field("labels", &O::labels, "content and style labels as conditions")
           .written_if([](const O& o) { return o.labels; })
           .field("label_dropout", &O::label_dropout, "probability a window's label is dropped in training",
@@ -92,6 +102,16 @@ const OptionFields<DfnOptions>& dfn_fields() {
 }
 
 }  // namespace
+
+FootObjectiveOptions DfnOptions::rollout_foot() const {
+  FootObjectiveOptions o = foot;
+  o.foot_contact_weight = o.heel_speed_weight = o.lift_off_weight = o.pelvis_follow_weight = 0;
+  o.slow_share_weight = o.bone_length_weight = 0;
+  o.stance_weight = rollout_stance_weight;
+  o.speed_distribution_weight = rollout_speed_distribution_weight;
+  o.toe_slide_weight = rollout_toe_slide_weight;
+  return o;
+}
 
 DfnOptions DfnOptions::from_json(const nlohmann::json& config) {
   DfnOptions o;

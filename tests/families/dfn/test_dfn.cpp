@@ -686,3 +686,43 @@ TEST(Dfn, FootObjectivesInTheAutoencoderAndDynamicsStages) {
   m->begin_stage(1, m->training_stages(TrainStageDefaults{})[1]);
   EXPECT_EQ(m->loss(batch).terms.count("planted_heel_mps"), 0u);
 }
+
+// The phase-free foot terms on the open-loop rollout (rollout_stance_weight and the others): the
+// frames drawn from the priors after the window, against the window's last frames. Logged with the
+// "rollout_" prefix, each added times its weight on top of the loss the same draws make without
+// them, and they reach the priors (the only way the prior networks get a gradient here); written
+// back only when on, and a negative weight is refused.
+TEST(Dfn, RolloutFootTermsEnterTheLossAndReachThePriors) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::form_context(s, data::PoseForm::kRotations);
+  const Batch batch = nn::testing::walk_batch(s, ctx, 16);
+  auto run = [&](const nlohmann::json& cfg, double* prior_gradient) {
+    return dynamics_without_prior_terms(ctx, batch, cfg, prior_gradient);
+  };
+  auto on = tiny();
+  on["rollout_frames"] = 8;
+  on["rollout_speed_distribution_weight"] = 2.0;
+  on["rollout_toe_slide_weight"] = 1.0;
+  auto off = tiny();
+  off["rollout_frames"] = 8;
+  double g_off = 0, g_on = 0;
+  const LossTerms without = run(off, &g_off), with = run(on, &g_on);
+  EXPECT_EQ(without.terms.count("rollout_speed_distribution_mps"), 0u);
+  ASSERT_EQ(with.terms.count("rollout_speed_distribution_mps"), 1u);
+  ASSERT_EQ(with.terms.count("rollout_toe_slide_mps"), 1u);
+  EXPECT_EQ(with.terms.count("speed_distribution_mps"), 0u);  // the posterior frames' terms stay off
+  const double dist = with.terms.at("rollout_speed_distribution_mps").item<double>();
+  const double toe = with.terms.at("rollout_toe_slide_mps").item<double>();
+  EXPECT_GT(dist, 0.0);
+  EXPECT_NEAR(with.loss().item<double>(), without.loss().item<double>() + 2.0 * dist + toe, 1e-4 * (1 + dist));
+  EXPECT_EQ(g_off, 0.0);
+  EXPECT_GT(g_on, 1e-8);
+  const auto o = DfnOptions::from_json(on);
+  EXPECT_EQ(o.rollout_foot().speed_distribution_weight, 2.0);
+  EXPECT_EQ(o.rollout_foot().foot_contact_weight, 0.0);
+  EXPECT_EQ(o.to_json().at("rollout_speed_distribution_weight"), 2.0);
+  EXPECT_EQ(DfnOptions::from_json(tiny()).to_json().count("rollout_stance_weight"), 0u);
+  auto bad = tiny();
+  bad["rollout_stance_weight"] = -1.0;
+  EXPECT_THROW(DfnOptions::from_json(bad), Error);
+}
