@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Walks of the families that make their own root motion (hvrnn, DFN, MOJO) beside real held-out
 walks, judged by the independent check (../shared/checks/natural_motion.py): v_tol95, foot-skating
-ratio and mean step duration, as generated/real ratios. Two ways of asking for a walk:
+ratio and mean step duration, as generated/real ratios, and the pelvis' mean ground speed beside
+the takes' (a model that stops walking stops sliding too). Two ways of asking for a walk:
 
   labels    --seconds S of content walk in each style of --styles (default: every style of the
             run), --n samples each (hvrnn: "10 s of content walk, each of the seven styles");
@@ -20,7 +21,7 @@ import argparse, json, os, sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from natural_eval import check, run, val_clips  # noqa: E402
+from natural_eval import CHECK, CHECK_SCALE, check, run, val_clips  # noqa: E402
 
 
 def trim_bvh(src, dst, first_frame):
@@ -34,6 +35,22 @@ def trim_bvh(src, dst, first_frame):
         sys.exit(f"{src}: {len(motion)} frames, nothing generated after frame {first_frame}")
     out = lines[:frames_line] + [f"Frames: {len(kept)}", lines[time_line]] + kept
     open(dst, "w").write("\n".join(out) + "\n")
+
+
+def pelvis_mps(files):
+    """Mean ground speed (m/s) of the pelvis (the joint named Hips, else the root) over each file, averaged over the files:
+    a model that stops walking has feet that do not slide, so the check's figures need this beside them."""
+    if os.path.dirname(CHECK) not in sys.path:
+        sys.path.insert(0, os.path.dirname(CHECK))
+    import numpy as np
+    import natural_motion as nm
+    speeds = []
+    for f in files:
+        pos, names, fps = nm.positions_m(f, CHECK_SCALE)
+        low = [n.lower() for n in names]
+        pelvis = low.index("hips") if "hips" in low else 0  # Bandai-Namco's own files root at a static joint
+        speeds.append(float(np.linalg.norm(np.diff(pos[:, pelvis, [0, 2]], axis=0), axis=-1).mean() * fps))
+    return float(np.mean(speeds))
 
 
 def by_labels(a, styles):
@@ -92,11 +109,14 @@ def main():
     else:
         generated = by_continuing(a, clips, source_dir)
     result = check(generated, real)
+    made, taken = pelvis_mps(generated), pelvis_mps(real)
+    result["pelvis_mps"] = dict(generated=made, real=taken, ratio=made / taken if taken > 0 else float("nan"))
     what = f"{a.mode}, {len(generated)} motions"
-    print(f"| {a.run} ({what}) | v_tol95 cm/s (ratio) | skating (ratio) | step s (ratio) |")
-    print("|---|---|---|---|")
-    print("| generated | " + " | ".join(f"{result[m]['generated']:.3g} ({result[m]['ratio']:.2f})" for m in ("v_tol95", "skating", "step_s")) + " |")
-    print("| real held-out walks | " + " | ".join(f"{result[m]['real']:.3g}" for m in ("v_tol95", "skating", "step_s")) + " |")
+    metrics = ("v_tol95", "skating", "step_s", "pelvis_mps")
+    print(f"| {a.run} ({what}) | v_tol95 cm/s (ratio) | skating (ratio) | step s (ratio) | pelvis m/s (ratio) |")
+    print("|---|---|---|---|---|")
+    print("| generated | " + " | ".join(f"{result[m]['generated']:.3g} ({result[m]['ratio']:.2f})" for m in metrics) + " |")
+    print("| real held-out walks | " + " | ".join(f"{result[m]['real']:.3g}" for m in metrics) + " |")
     if a.json:
         json.dump(dict(run=a.run, dataset=a.dataset, mode=a.mode, n=a.n, seconds=a.seconds, observed_frames=a.observed_frames,
                        observed_s=a.observed, clips=[c[1] for c in clips], results=result), open(a.json, "w"), indent=1)
