@@ -120,7 +120,8 @@ void run_report(const ReportArgs& a) {
   const std::string ext = extension_of(a.out);
   if (ext != "html" && ext != "htm") throw UsageError("--out must end in .html");
   const fs::path run(a.run_dir);
-  if (!fs::exists(run / "config.json")) throw Error(a.run_dir + ": not a run directory (no config.json)");
+  if (!fs::exists(run / "config.json")) throw Error(a.run_dir + ": not a run directory (no config.json): give the --out folder of `mosyn train`, or a model "
+                "of models/ (models/README.md)");
   eval::ReportInputs in;
   in.title = "mosyn run " + fs::absolute(run).lexically_normal().string();
   in.config = io::read_json((run / "config.json").string());

@@ -24,7 +24,8 @@ PoseTransport::PoseTransport(const ModelContext& context) {
     throw Error("moglow: residual needs joint-position features (pose form positions, D = 3 J) and the root "
                 "control (dx, dz, dtheta); this data has pose form " +
                 std::string(data::to_string(context.pose_form)) + ", D = " + std::to_string(context.pose_dim) +
-                ", C = " + std::to_string(context.control_dim));
+                ", C = " + std::to_string(context.control_dim) +
+                " (prepare the data with `mosyn data prepare ... --form positions`)");
   pose_mean_ = stat(context.stats.pose_mean, context.pose_dim, 0.0, "pose mean");
   pose_std_ = stat(context.stats.pose_std, context.pose_dim, 1.0, "pose std");
   control_mean_ = stat(context.stats.control_mean, 3, 0.0, "control mean");
