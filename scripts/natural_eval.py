@@ -19,7 +19,7 @@ by about 0.15 from one --seed to the next on the same weights (recurrent VAE run
 
 Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure. A second table
 splits the check's toe-slide rule by the pelvis' ground speed (1-s mean): where a model's feet slide
-more than the takes' (session 35: the drawn paths' excess lay in their starts, stops and stands,
+more than the takes' (for MoGlow, the drawn paths' excess lay in their starts, stops and stands,
 speeds the held-out takes never reach).
 """
 import argparse, inspect, json, os, re, struct, subprocess, sys

@@ -148,7 +148,7 @@ double foot_skating_ratio(const MotionPositions& motion, const FootJoints& feet,
 // stray low frame, where the lowest point is not); a transition t-1 -> t slides when a toe within
 // height_threshold_m of its floor at t-1 moves horizontally faster than speed_threshold_mps. One
 // toe suffices. Stricter than MOJO's measure above: a toe dragging while the other foot stands,
-// or shuffling at a stop, counts (sessions 38-40 of models/moglow-lookahead).
+// or shuffling at a stop, counts (docs/experiments.md, MoGlow).
 struct ToeSlideOptions {
   double height_threshold_m = 0.01;
   double speed_threshold_mps = 0.10;

@@ -68,11 +68,11 @@ struct DfnOptions {
   // Free bits (Kingma et al. 2016): each of the s and f KL terms, averaged per frame over the
   // batch, enters the loss as max(KL, kl_free_nats), so below that budget nothing pushes a
   // posterior onto its prior. 0 = the paper's plain KL. Against the collapse of s (KL 0.0015 nats
-  // per frame after 1,480 steps in session 5), which leaves all diversity to f.
+  // per frame after 1,480 steps of the first Bandai-Namco run), which leaves all diversity to f.
   double kl_free_nats = 0.0;
   // Floor on the log-variances of Eq. 15's likelihood terms: p(z | s, h), p(m | f, h) and the
   // TD prediction of s_t2 (its target detached). -8 = only the soft [-8, 8] bound. A variance
-  // that shrinks makes its term's gradient grow as 1 / variance. (Session 12's divergence on
+  // that shrinks makes its term's gradient grow as 1 / variance. (A divergence seen on
   // Bandai-Namco was not this: the variances stayed near e^-2; a lower lr cured it. README.)
   double observation_logvar_min = -8.0;
   // Scheduled prior draws in the dynamics stage: at each training step and window, with this

@@ -79,7 +79,7 @@ struct TrainOptions {
   // gives it, is multiplied by the factor of every entry its clip matches, before speed_balance.
   // For a combination the data holds little of at the speeds others fill: the model blends it
   // into its neighbours (Bandai-Namco's elderly runs, 1.2-1.8 m/s, were drawn with the longer
-  // stances of walks at those speeds; models/moglow-lookahead, session 38). Empty = off.
+  // stances of walks at those speeds; docs/experiments.md). Empty = off.
   std::map<std::string, double> label_weights;
   double lr = 1e-3;               // peak learning rate (Adam; the default stage's)
   int warmup = 1000;              // Noam warm-up steps: lr * min(s / w, sqrt(w / s)); 0 = constant lr
@@ -97,8 +97,8 @@ struct TrainOptions {
   int checkpoint_every = 500;     // steps between checkpoints (the last step always checkpoints)
   // Also keep every checkpoint as checkpoint-<step>.pt beside checkpoint.pt (the same state), for
   // choosing among steps afterwards (`mosyn export --checkpoint checkpoint-300.pt`, `--average`):
-  // continued training can pass its best point within a few hundred steps (models/moglow-lookahead,
-  // sessions 39-40). --overwrite removes a run's kept checkpoints with the rest.
+  // continued training can pass its best point within a few hundred steps (docs/experiments.md).
+  // --overwrite removes a run's kept checkpoints with the rest.
   bool keep_checkpoints = false;
   int validate_every = 500;       // steps between validations (and at the last step); 0 = never
   int val_windows = 256;          // size of the fixed validation subset (evenly spread windows)
