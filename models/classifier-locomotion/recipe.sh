@@ -14,16 +14,8 @@ mkdir -p "$OUT/data"
 
 # 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only,
 #    a minute of them in training).
-LOCO="walk,walk-turn-left,walk-turn-right,run"; LIMIT=""
-if [ "$SMOKE" = 1 ]; then
-  LIMIT="--max-train-seconds 60"
-  BN="$OUT/data/smoke/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || { mkdir -p "$OUT/data/smoke"; tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data/smoke" \
-      --wildcards '*/Bandai-Namco-Research-Motiondataset-2/cfg/*' '*/dataset-2_walk_*'; }
-else
-  BN="$OUT/data/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data" bandai-namco/Bandai-Namco-Research-Motiondataset-2
-fi
+LOCO="walk,walk-turn-left,walk-turn-right,run"
+source "$(dirname "$0")/../../scripts/recipe_archive.sh"
 
 # 2. `loco`: the four locomotion contents at 30 fps, joint rotations, mirrored, windows of 120
 #    frames (hop 30), 10% of the files held out (split seed 0).

@@ -14,16 +14,7 @@ mkdir -p "$OUT/data"
 
 # 1. The Bandai-Namco archive (CC BY-NC 4.0): dataset 2, unpacked once (SMOKE: its walks only,
 #    a minute of them in training).
-LIMIT=""
-if [ "$SMOKE" = 1 ]; then
-  LIMIT="--max-train-seconds 60"
-  BN="$OUT/data/smoke/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || { mkdir -p "$OUT/data/smoke"; tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data/smoke" \
-      --wildcards '*/Bandai-Namco-Research-Motiondataset-2/cfg/*' '*/dataset-2_walk_*'; }
-else
-  BN="$OUT/data/bandai-namco/Bandai-Namco-Research-Motiondataset-2"
-  [ -d "$BN" ] || tar -xzf "$MOSYN_DATA/bandai-namco-motion.tar.gz" -C "$OUT/data" bandai-namco/Bandai-Namco-Research-Motiondataset-2
-fi
+source "$(dirname "$0")/../../scripts/recipe_archive.sh"
 
 # 2. `bandai2-rot200`: all ten contents of dataset 2 at its own 30 fps, joint rotations, the root
 #    path filtered by the default 0.35-s Gaussian, mirrored, windows of 200 frames (hop 50), 10%

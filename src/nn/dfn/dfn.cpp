@@ -137,15 +137,24 @@ LossTerms DfnImpl::autoencoder_loss(const Batch& batch) {
   return out;
 }
 
+namespace {
+
+// [B, n] 1 where window frame start + i lies inside its clip (a short clip's padding left out);
+// undefined when the batch holds no padded clip.
+torch::Tensor frames_in_clip(const Batch& batch, int64_t start, int64_t n, const torch::Device& device) {
+  if (!batch.frames.defined()) return {};
+  return torch::arange(start, start + n, torch::dtype(torch::kInt64).device(device)).unsqueeze(0) <
+         batch.frames.to(device).to(torch::kInt64).unsqueeze(1);
+}
+
+}  // namespace
+
 torch::Tensor DfnImpl::foot_term(const Batch& batch, const torch::Tensor& made, const torch::Tensor& made_control,
                                  LossTerms& out) {
   auto total = torch::zeros({}, made.options());
   if (!foot_.on()) return total;
   const int64_t n = made.size(1);
-  torch::Tensor valid;  // a short clip's padding left out
-  if (batch.frames.defined())
-    valid = torch::arange(n, torch::dtype(torch::kInt64).device(made.device())).unsqueeze(0) <
-            batch.frames.to(made.device()).to(torch::kInt64).unsqueeze(1);
+  const torch::Tensor valid = frames_in_clip(batch, 0, n, made.device());
   foot_.add({made, made_control, batch.pose.narrow(1, 0, n), batch.control.narrow(1, 0, n), valid, batch.content,
              batch.style},
             is_training(), &total, &out);
@@ -247,10 +256,7 @@ torch::Tensor DfnImpl::rollout_foot_term(const Batch& batch, const torch::Tensor
                                          const torch::Tensor& made_control, LossTerms& out) {
   auto total = torch::zeros({}, made.options());
   const int64_t r = std::min(made.size(1), batch.pose.size(1)), start = batch.pose.size(1) - r;
-  torch::Tensor valid;  // steps into a short clip's padding left out
-  if (batch.frames.defined())
-    valid = (torch::arange(start, start + r, torch::dtype(torch::kInt64).device(made.device())).unsqueeze(0) <
-             batch.frames.to(made.device()).to(torch::kInt64).unsqueeze(1));
+  const torch::Tensor valid = frames_in_clip(batch, start, r, made.device());
   LossTerms terms;
   rollout_foot_.add({made.narrow(1, 0, r), made_control.narrow(1, 0, r), batch.pose.narrow(1, start, r),
                      batch.control.narrow(1, start, r), valid, batch.content, batch.style},
