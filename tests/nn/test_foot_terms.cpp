@@ -299,7 +299,7 @@ TEST(FootTerms, SlowShareChargesAHeelSlowLongerThanTheData) {
     return torch::tensor(flat, opts).reshape({1, 2, 6}).transpose(1, 2).contiguous();  // [1, 6, 2]
   };
   auto made = as_tensor(made_v).requires_grad_(true);
-  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}, {}};
   const int window = 3;
   double sum = 0;
   int counted = 0;
@@ -346,7 +346,7 @@ TEST(FootTerms, SortedSpeedErrorComparesTheHeelsSpeedDistributions) {
   // Heel 0: the data's two slow steps two steps later (no cost); heel 1: slow for four steps.
   const std::vector<std::vector<double>> made_v = {{1.5, 3.0, 2.0, 0.05, 0.05, 0.9}, {0.0, 0.1, 0.2, 0.2, 2.0, 2.0}};
   auto made = as_tensor(made_v).requires_grad_(true);
-  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}};
+  const FootTerms::HeelSpeeds speeds{made, as_tensor(real_v), {}, {}};
   const double cap = 0.6;
   // By hand, heel 1 sorted and clamped: made 0, 0.1, 0.2, 0.2, 0.6, 0.6; real 0.1, 0.3, 0.4, 0.6, 0.6, 0.6.
   const double heel1 = (0.1 + 0.2 + 0.2 + 0.4 + 0 + 0) / 6;

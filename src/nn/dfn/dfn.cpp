@@ -287,12 +287,10 @@ torch::Tensor DfnImpl::rollout_terms(const Batch& batch, std::pair<torch::Tensor
     torch::NoGradGuard no_grad;
     real = window_speeds(batch.control, plain ? batch.pose : ae->feature_positions(batch.pose));
   }
-  const double e = kRolloutSpeedFloorMps;
-  const double band = std::log(options_.rollout_speed_tolerance);
-  auto log_ratio2 = [e, band](const torch::Tensor& a, const torch::Tensor& b) {
-    return torch::relu((torch::log(a + e) - torch::log(b + e)).abs() - band).pow(2);
-  };
-  auto term = (log_ratio2(gen.root_mps, real.root_mps) + log_ratio2(gen.body_mps, real.body_mps)).mean();
+  const double tol = options_.rollout_speed_tolerance;
+  auto term = (speed_ratio_excess(gen.root_mps, real.root_mps, tol, kRolloutSpeedFloorMps) +
+               speed_ratio_excess(gen.body_mps, real.body_mps, tol, kRolloutSpeedFloorMps))
+                  .mean();
   out.terms["rollout_speed"] = term.detach();
   out.terms["rollout_root_mps"] = gen.root_mps.mean().detach();
   out.terms["rollout_body_mps"] = gen.body_mps.mean().detach();

@@ -29,6 +29,7 @@
 
 #include "nn/gaussian.h"
 #include "nn/model.h"
+#include "nn/objectives/draw_objectives.h"
 #include "nn/objectives/foot_objectives.h"
 
 namespace mosyn::nn {

@@ -104,13 +104,11 @@ const OptionFields<DfnOptions>& dfn_fields() {
 }  // namespace
 
 FootObjectiveOptions DfnOptions::rollout_foot() const {
-  FootObjectiveOptions o = foot;
-  o.foot_contact_weight = o.heel_speed_weight = o.lift_off_weight = o.pelvis_follow_weight = 0;
-  o.slow_share_weight = o.bone_length_weight = 0;
-  o.stance_weight = rollout_stance_weight;
-  o.speed_distribution_weight = rollout_speed_distribution_weight;
-  o.toe_slide_weight = rollout_toe_slide_weight;
-  return o;
+  DrawObjectiveOptions draw;
+  draw.draw_stance_weight = rollout_stance_weight;
+  draw.draw_speed_distribution_weight = rollout_speed_distribution_weight;
+  draw.draw_toe_slide_weight = rollout_toe_slide_weight;
+  return draw.foot(foot);
 }
 
 DfnOptions DfnOptions::from_json(const nlohmann::json& config) {

@@ -45,6 +45,7 @@ HvrnnImpl::HvrnnImpl(const HvrnnOptions& o, const ModelContext& context)
   if (context.pose_dim < 1 || context.control_dim < 1) throw Error("hvrnn: the context needs pose and control dims");
   geometry_ = hvrnn::geometry_for(context, o);
   foot_ = FootObjectives(context, o.foot, "hvrnn");
+  draw_ = DrawObjectives(context, o.draw, o.foot, "hvrnn");
   label_dim_ = context.num_content + context.num_style;
   const int w = word_dim(), s = o.state * o.state_layers, a = o.label_code, raw = o.word_length * frame_dim();
   if (o.word_coder) {
@@ -314,7 +315,8 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   const double p_drop = is_training() ? current_word_drop() : 0.0;
   if (p_drop > 0) drop = (torch::rand({b, n}) < p_drop).to(pose.device());
   const bool boundary = options_.boundary_weight > 0 && n > 1;
-  auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr, boundary);
+  const bool drawn = draw_.on() && is_training();
+  auto u = unroll(encode_words(frames), drop, n, h0, a, 1.0, nullptr, boundary || drawn);
   auto previous = options_.decoder_previous_frame ? teacher_previous(frames) : torch::Tensor();
   auto pred = decode_words(u.out, previous);
   auto r = reconstruction(pred, frames);
@@ -327,12 +329,14 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   auto kl_loss = options_.kl_free_nats > 0 ? torch::clamp_min(kl, options_.kl_free_nats) : kl;
   auto total = recon + w_kl * kl_loss + options_.validity_weight * validity;
   torch::Tensor boundary_error = torch::zeros({}, total.options());
+  torch::Tensor prior_frames;  // every word decoded from a prior draw at its teacher-forced state
+  if (drawn) prior_frames = decode_words(u.prior, previous);
   if (boundary) {
     // The first frame of words 1..n-1 decoded from a prior draw, against the real first frame.
     auto first = [&](const torch::Tensor& x) {
       return x.reshape({b, n, l, frame_dim()}).select(2, 0).narrow(1, 1, n - 1);
     };
-    auto prior_frames = decode_words(u.prior, previous);
+    if (!prior_frames.defined()) prior_frames = decode_words(u.prior, previous);
     auto r_first = reconstruction(first(prior_frames), first(frames));
     auto first_mask = word_mask.narrow(1, 1, n - 1);
     boundary_error = (r_first.recon * first_mask).sum() / first_mask.sum().clamp_min(1.0);
@@ -363,6 +367,10 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   foot_.add({pred.narrow(-1, 0, d), pred.narrow(-1, d, c), frames.narrow(-1, 0, d), frames.narrow(-1, d, c), mask,
              batch.content, batch.style},
             is_training(), &total, &terms);
+  if (drawn)
+    draw_.add({prior_frames.narrow(-1, 0, d), prior_frames.narrow(-1, d, c), frames.narrow(-1, 0, d),
+               frames.narrow(-1, d, c), mask, batch.content, batch.style},
+              true, &total, &terms);
   terms.terms["loss"] = total;
   terms.terms["recon"] = recon.detach();
   terms.terms["kl"] = kl.detach();

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "nn/model.h"
+#include "nn/objectives/draw_objectives.h"
 #include "nn/objectives/foot_objectives.h"
 
 namespace mosyn::nn {
@@ -92,6 +93,12 @@ struct HvrnnOptions {
   // reconstructs: drawn free, the paper's loss left the feet skating 5-6x real walks. Their keys sit
   // at the top level of the config; every weight 0 = off (the paper).
   FootObjectiveOptions foot;
+  // The shared terms on free draws (nn/objectives/draw_objectives.h; not in the paper): every word
+  // also decoded from a prior draw at its teacher-forced state (as the boundary term does), the
+  // sequence of drawn words against the window: phase-free stance, speed distribution, toe slide
+  // and root speed. The foot terms on the reconstruction alone left drawn walks skating 3.8x real
+  // ones (docs/experiments.md): they reach the decoder, not the prior samples come from.
+  DrawObjectiveOptions draw;
 
   static HvrnnOptions from_json(const nlohmann::json& config);
   nlohmann::json to_json() const;
@@ -242,6 +249,7 @@ class HvrnnImpl : public MotionModel {
   double progress_ = 1.0;  // fraction of training done (1 outside training)
   std::shared_ptr<ClassifierImpl> classifier_;  // frozen, loaded lazily; not a submodule
   FootObjectives foot_;                          // the shared foot terms (options_.foot)
+  DrawObjectives draw_;                          // the shared terms on prior draws (options_.draw)
 };
 TORCH_MODULE(Hvrnn);
 

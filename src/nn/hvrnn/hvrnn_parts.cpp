@@ -62,6 +62,7 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
                  in_range(0.0, 1.0))
           .field("spread_floor", &O::spread_floor, "added to every softplus spread", at_least(0.0))
           .include(&O::foot, foot_objective_fields())
+          .include(&O::draw, draw_objective_fields())
           .rule([](const O& o) {
             return o.decoder_previous_frame && !o.word_coder ? "decoder_previous_frame needs the word coder" : "";
           })

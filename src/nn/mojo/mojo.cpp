@@ -47,7 +47,8 @@ const OptionFields<MojoOptions>& mojo_fields() {
           .field("projection_iterations", &O::projection_iterations, "LM iterations per projected frame", at_least(1))
           .field("projection_prior", &O::projection_prior, "pose-change prior of the projection", at_least(0.0))
           .field("projection_threads", &O::projection_threads, "threads of the projection (0 = all)", at_least(0))
-          .include(&O::foot, foot_objective_fields());
+          .include(&O::foot, foot_objective_fields())
+          .include(&O::draw, draw_objective_fields());
   return fields;
 }
 
@@ -99,6 +100,7 @@ MojoImpl::MojoImpl(const MojoOptions& options, const ModelContext& context)
   frame_dim_ = context.pose_dim + context.control_dim;
   if (context.pose_dim < 1) throw Error("mojo: pose_dim must be >= 1");
   foot_ = FootObjectives(context, options.foot, "mojo");
+  draw_ = DrawObjectives(context, options.draw, options.foot, "mojo");
   const int h = options.hidden, z = options.latent, dc = frame_dim_;
   past_rnn = register_module("past_rnn", torch::nn::GRU(torch::nn::GRUOptions(dc, h).batch_first(true)));
   future_rnn = register_module("future_rnn", torch::nn::GRU(torch::nn::GRUOptions(dc, h).batch_first(true)));
@@ -266,6 +268,13 @@ LossTerms MojoImpl::cvae_loss(const torch::Tensor& past, const torch::Tensor& fu
   foot_.add({made.narrow(-1, 0, d), made.narrow(-1, d, c), real.narrow(-1, 0, d), real.narrow(-1, d, c), {},
              batch.content, batch.style},
             is_training(), &out.terms["loss"], &out);
+  if (draw_.on() && is_training()) {  // the same future drawn from the prior, as at sampling
+    auto z_prior = torch::randn(mean.sizes(), torch::TensorOptions().dtype(mean.scalar_type())).to(mean.device());
+    const auto drawn = with_last(decode(h_x, latent_sequence(z_prior, f), last));
+    draw_.add({drawn.narrow(-1, 0, d), drawn.narrow(-1, d, c), real.narrow(-1, 0, d), real.narrow(-1, d, c), {},
+               batch.content, batch.style},
+              true, &out.terms["loss"], &out);
+  }
   return out;
 }
 

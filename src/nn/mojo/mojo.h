@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "nn/model.h"
+#include "nn/objectives/draw_objectives.h"
 #include "nn/objectives/foot_objectives.h"
 #include "nn/mojo/projection.h"
 
@@ -82,6 +83,12 @@ struct MojoOptions {
   // drawn free, the paper's loss left the feet skating 5-6x real walks. Keys at the top level of
   // the config; every weight 0 = off (the paper). DLow's stage leaves them out (the CVAE is frozen).
   FootObjectiveOptions foot;
+  // The shared terms on free draws (nn/objectives/draw_objectives.h; not in the paper), stage
+  // "cvae": each window's future decoded a second time from a prior latent (as at sampling with
+  // sampler "prior"; DLow's latents are trained to stay near that prior), against the window's
+  // real future: phase-free stance, speed distribution, toe slide, and the root speed. The foot
+  // terms on the reconstruction alone left draws skating 3.5x real walks (docs/experiments.md).
+  DrawObjectiveOptions draw;
 
   static MojoOptions from_json(const nlohmann::json& config);
   nlohmann::json to_json() const;
@@ -145,6 +152,7 @@ class MojoImpl : public MotionModel {
   torch::Tensor dlow_trained_;  // buffer: 1 once the DLow stage has begun
   mojo::ProjectionTiming last_timing_;
   FootObjectives foot_;  // the shared foot terms (options_.foot)
+  DrawObjectives draw_;  // the shared terms on prior draws (options_.draw)
 };
 TORCH_MODULE(Mojo);
 

@@ -38,6 +38,13 @@ torch::Tensor FootTerms::raw_control(const torch::Tensor& control, const torch::
   return control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
 }
 
+torch::Tensor FootTerms::root_mps(const torch::Tensor& control) const {
+  if (heels_.empty()) throw Error("FootTerms: not built from a model context");
+  const auto ctrl = raw_control(control, control.options());
+  const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);  // sideways, forward (m)
+  return (step.pow(2).sum(-1) + 1e-12).sqrt() * fps_;  // a finite gradient at standstill
+}
+
 namespace {
 
 // max(floor_mps, fraction x the root's ground speed) per step, [B, T-1, 1]: a threshold or cap that

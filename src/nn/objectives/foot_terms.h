@@ -68,6 +68,10 @@ class FootTerms {
   };
   HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& made_control, const torch::Tensor& real,
                     const torch::Tensor& real_control) const;
+  // The root's ground speed (m/s) into each frame t = 1..T-1 from standardised control [B, T, C]
+  // (the control of frame t is the root's step into it): [B, T-1], differentiable in control (a
+  // family that generates its root steps can be charged for them).
+  torch::Tensor root_mps(const torch::Tensor& control) const;
   // Both with the data's root steps (a family that takes the root as input).
   HeelSpeeds speeds(const torch::Tensor& made, const torch::Tensor& real, const torch::Tensor& control) const {
     return speeds(made, control, real, control);
