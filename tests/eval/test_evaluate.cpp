@@ -104,6 +104,11 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
   EXPECT_TRUE(std::isfinite(r.row("classifier.fid").real));  // two halves of the real clips
   EXPECT_GT(r.row("diversity.apd_m").model, 0.0);
   EXPECT_GE(r.row("prediction.mmade_m").model, 0.0);
+  // The constant-velocity baseline of the same windows, and the model's ADE over it.
+  EXPECT_GT(r.row("prediction.cv_ade_m").model, 0.0);
+  EXPECT_GT(r.row("prediction.cv_fde_m").model, r.row("prediction.cv_ade_m").model);  // its error grows
+  EXPECT_NEAR(r.row("prediction.ade_over_cv").model, r.row("prediction.ade_m").model / r.row("prediction.cv_ade_m").model,
+              1e-12);
   EXPECT_GE(r.row("classifier.is").model, 1.0 - 1e-9);
   EXPECT_EQ(r.row("motions").model, 4.0);  // one replicate set per sample index, as many motions as clips
   EXPECT_EQ(r.row("motions").real, 4.0);

@@ -13,6 +13,20 @@ using detail::kNaN;
 using detail::root_relative;
 using detail::rows_of;
 
+// The baseline a stochastic predictor must beat (MOJO's done-when asks best-of-50 ADE below 0.8x
+// of it): every root-relative joint carried on at its velocity over the last two observed frames.
+// truth [p + h, 3J] root-relative; one sample, so its "best of" is itself.
+PredictionWindow constant_velocity_window(const Eigen::MatrixXd& truth, int p, int h) {
+  PredictionWindow w;
+  w.ground_truth = truth.middleRows(p, h);
+  w.last_context_pose = truth.row(p - 1).transpose();
+  const Eigen::RowVectorXd last = truth.row(p - 1), velocity = truth.row(p - 1) - truth.row(p - 2);
+  Eigen::MatrixXd carried(h, truth.cols());
+  for (int k = 0; k < h; ++k) carried.row(k) = last + (k + 1) * velocity;
+  w.samples.push_back(std::move(carried));
+  return w;
+}
+
 class PredictionProtocol : public Protocol {
  public:
   std::string name() const override { return "prediction"; }
@@ -28,7 +42,7 @@ void PredictionProtocol::run(EvalContext& ctx, EvalResult& result) const {
   const int p = static_cast<int>(std::lround(o.prefix_s * ctx.info().fps));
   const int h = static_cast<int>(std::lround(o.horizon_s * ctx.info().fps));
   if (p < 1 || h < 2) throw Error("evaluate: prefix must be >= 1 frame and horizon >= 2 frames");
-  std::vector<PredictionWindow> windows;
+  std::vector<PredictionWindow> windows, constant_velocity;
   for (size_t i = 0; i < ctx.num_clips(); ++i) {
     ctx.report("prediction", static_cast<int>(i), static_cast<int>(ctx.num_clips()));
     const data::ClipRecord& rec = ctx.clip(i);
@@ -41,6 +55,7 @@ void PredictionProtocol::run(EvalContext& ctx, EvalResult& result) const {
     w.last_context_pose = truth.row(p - 1).transpose();
     for (const auto& s : ctx.continuations(i, p, p + h, o.seed + 1000003 + i))
       w.samples.push_back(root_relative(s).middleRows(p, h));
+    if (p >= 2) constant_velocity.push_back(constant_velocity_window(truth, p, h));
     windows.push_back(std::move(w));
   }
   if (windows.empty()) return;
@@ -52,6 +67,12 @@ void PredictionProtocol::run(EvalContext& ctx, EvalResult& result) const {
   result.rows.push_back({"prediction.mmade_m", "prediction MMADE (m)", pm.mmade_m, kNaN});
   result.rows.push_back({"prediction.mmfde_m", "prediction MMFDE (m)", pm.mmfde_m, kNaN});
   result.rows.push_back({"prediction.fse", "prediction FSE (nats)", pm.fse, 0.0});
+  if (constant_velocity.size() == windows.size()) {
+    const PredictionMetrics cv = evaluate_predictions(constant_velocity, o.multimodal_threshold_m);
+    result.rows.push_back({"prediction.cv_ade_m", "constant-velocity ADE (m)", cv.ade_m, kNaN});
+    result.rows.push_back({"prediction.cv_fde_m", "constant-velocity FDE (m)", cv.fde_m, kNaN});
+    result.rows.push_back({"prediction.ade_over_cv", "ADE / constant-velocity ADE", pm.ade_m / cv.ade_m, kNaN});
+  }
 }
 
 }  // namespace
