@@ -153,8 +153,8 @@ struct EvalResult {
 //   positions relative to the pelvis (translation and rotation removed); and "motion_initial" /
 //   "pose_initial" for samples that continue the clip's first initial_frames frames. Averaged
 //   over the N samples and the clips covering the latest time (real: n/a);
-// - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse", and with a prefix of
-//   2 frames or more the constant-velocity baseline ".cv_ade_m", ".cv_fde_m" and ".ade_over_cv"
+// - with prediction: "prediction.apd_m", ".ade_m", ".fde_m", ".mmade_m", ".mmfde_m", ".fse", the constant-velocity
+//   baseline (last pose carried at the root's velocity) ".cv_ade_m", ".cv_fde_m" and ".ade_over_cv"
 //   (evaluate_predictions on joint positions relative to the pelvis, joint 0; real: n/a) over
 //   clips with prefix + horizon frames; then, on the raw predicted features of the same windows
 //   (MOJO's Tables 3, 4, 6; src/eval/protocols/body_validity.cpp): for marker-form runs
