@@ -5,7 +5,7 @@
 # default ../shared/data), SMOKE=1 (every stage with a handful of steps, as `make test` runs it).
 # OUT_DIR ends as a model directory (config.json, stats.json, checkpoint.pt, log.jsonl).
 # The classifier loss reads models/classifier-bandai2-train (its own recipe.sh rebuilds it).
-# Wall time (1 training thread): about 8 hours after the dataset (six runs, 21,945 steps).
+# Wall time (1 training thread): about 9 hours after the dataset (seven runs, 22,945 steps).
 set -euo pipefail
 OUT=${1:?usage: bash models/hvrnn-bandai/recipe.sh OUT_DIR}
 MOSYN=${MOSYN:-build/mosyn}
@@ -23,20 +23,20 @@ source "$(dirname "$0")/../../scripts/recipe_archive.sh"
 "$MOSYN" data prepare "$BN" --out "$OUT/data/bandai2-rot200" --form rotations --mirror --window 200 --hop 50 \
     $LIMIT --overwrite
 
-# Six runs, each from the weights of the one before (--init-from). The paper's sizes (preset
+# Seven runs, each from the weights of the one before (--init-from). The paper's sizes (preset
 # `full`: words of 3 frames, two 512-unit GRU layers, latent 96, hierarchical joint weights),
 # batch 32 windows of up to 200 frames (shorter clips padded), gradient-norm clip 0.1, the
 # classifier loss through models/classifier-bandai2-train with its feature term at 0.002.
 BATCH=32; WINDOW=200; VAL_WINDOWS=256
-S1=1500; KEEP1=checkpoint-1250.pt; S2=1400; S3=12500; S4A=1284; S4B=4000; S4C=1261
-if [ "$SMOKE" = 1 ]; then BATCH=2; WINDOW=30; VAL_WINDOWS=2; S1=2; KEEP1=checkpoint-2.pt; S2=2; S3=2; S4A=2; S4B=2; S4C=2; fi
+S1=1500; KEEP1=checkpoint-1250.pt; S2=1400; S3=12500; S4A=1284; S4B=4000; S4C=1261; S5=1000
+if [ "$SMOKE" = 1 ]; then BATCH=2; WINDOW=30; VAL_WINDOWS=2; S1=2; KEEP1=checkpoint-2.pt; S2=2; S3=2; S4A=2; S4B=2; S4C=2; S5=2; fi
 BASE='"preset": "full", "classifier_run": "models/classifier-bandai2-train", "classifier_feature_weight": 0.002'
 # From run 2 on, the schedules stay at their final values (the weights come annealed).
 HELD='"kl_warmup": 0.0, "kl_anneal": 0.0, "classifier_ramp": 0.0, "word_drop_ramp": 0.0'
-config() {  # config MODEL_KEYS STEPS LR EVERY > file
+config() {  # config MODEL_KEYS STEPS LR EVERY [SEED] > file
   cat <<JSON
 {"model": {$BASE${1:+, $1}},
- "train": {"batch": $BATCH, "window": $WINDOW, "steps": $2, "lr": $3, "warmup": 0, "grad_clip": 0.1, "seed": 1, "checkpoint_every": $4,
+ "train": {"batch": $BATCH, "window": $WINDOW, "steps": $2, "lr": $3, "warmup": 0, "grad_clip": 0.1, "seed": ${5:-1}, "checkpoint_every": $4,
            "validate_every": $4, "val_windows": $VAL_WINDOWS, "threads": 1}}
 JSON
 }
@@ -73,10 +73,18 @@ train run-4a "$OUT/train-config-4a.json" run-3
 config "$HELD, $FREE, $PREV, \"boundary_weight\": 1.0" $S4B 0.0005 250 > "$OUT/train-config-4b.json"
 train run-4b "$OUT/train-config-4b.json" run-4a
 
-# --- The last training stage: run 4c ----------------------------------------------------------
-# 8. The boundary term at 2: 1,261 steps, the last step is the model.
-config "$HELD, $FREE, $PREV, \"boundary_weight\": 2.0" $S4C 0.0005 250 > "$OUT/train-config.json"
-train run "$OUT/train-config.json" run-4b
+# 8. Run 4c, the boundary term at 2: 1,261 steps.
+config "$HELD, $FREE, $PREV, \"boundary_weight\": 2.0" $S4C 0.0005 250 > "$OUT/train-config-4c.json"
+train run-4c "$OUT/train-config-4c.json" run-4b
+
+# --- The last training stage: run 5 -------------------------------------------------------------
+# 9. The shared terms on free draws (src/nn/objectives/draw_objectives.h): every word also decoded
+#    from a prior draw at its teacher-forced state, the drawn words' heels held to the data's
+#    phase-free stance and speed distribution (1 each), their toes not to slide (3), their root as
+#    fast as the window's within 1.2x (1). Peak 2e-4, seed 5: 1,000 steps, the last is the model.
+DRAW='"draw_stance_weight": 1.0, "draw_speed_distribution_weight": 1.0, "draw_toe_slide_weight": 3.0, "draw_speed_weight": 1.0, "draw_speed_tolerance": 1.2'
+config "$HELD, $FREE, $PREV, \"boundary_weight\": 2.0, $DRAW" $S5 0.0002 250 5 > "$OUT/train-config.json"
+train run "$OUT/train-config.json" run-4c
 
 # --- Export -------------------------------------------------------------------------------------
 "$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite
