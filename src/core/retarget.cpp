@@ -1,0 +1,335 @@
+#include "core/retarget.h"
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/joint_names.h"
+#include "core/kinematics.h"
+#include "core/units.h"
+
+namespace mosyn {
+namespace {
+
+using Quat = Eigen::Quaterniond;
+using Vec3 = Eigen::Vector3d;
+
+constexpr double kStandingCos = 0.8;  // legs within ~37 degrees of down, spine of up: standing
+
+// Shortest rotation taking direction a onto b; identity when either is (nearly) zero. Opposite
+// directions turn about `fallback_axis` (the up axis keeps a half turn a yaw).
+Quat swing(const Vec3& a, const Vec3& b, const Vec3& fallback_axis = Vec3::UnitY()) {
+  if (a.norm() < 1e-12 || b.norm() < 1e-12) return Quat::Identity();
+  if (a.normalized().dot(b.normalized()) < -1 + 1e-9) {
+    Vec3 axis = fallback_axis - fallback_axis.dot(a.normalized()) * a.normalized();
+    if (axis.norm() < 1e-9) axis = a.unitOrthogonal();
+    return Quat(Eigen::AngleAxisd(M_PI, axis.normalized()));
+  }
+  return Quat::FromTwoVectors(a, b);
+}
+
+// Which rig joint is which, and which input joint drives it.
+struct Pairing {
+  std::vector<int> source_of;      // [J_rig] input joint, or -1
+  std::vector<JointPart> part;     // [J_rig] from the rig joint's name, else from its partner's
+  std::vector<int> aim;            // [J_rig] paired rig joint below whose bone the joint aims, or -1
+  int hips = -1;                   // rig joints
+  int spine_top = -1;              // the neck, else the last spine joint
+  int thigh[2] = {-1, -1}, shin[2] = {-1, -1}, foot[2] = {-1, -1};  // [left, right]
+};
+
+int first_part(const Pairing& p, BodyPart part, BodySide side) {
+  for (size_t j = 0; j < p.part.size(); ++j)
+    if (p.source_of[j] >= 0 && p.part[j].part == part && p.part[j].side == side) return static_cast<int>(j);
+  return -1;
+}
+
+// The paired joint below j that j's bone aims at: the only one, or the only one up the body
+// (spine, neck, head: what the hips and chest point at, not the legs and arms beside them).
+int aim_of(const Skeleton& rig, const Pairing& p, int j) {
+  std::vector<int> below;
+  for (int k = j + 1; k < rig.num_joints(); ++k) {
+    int a = rig.parents[k];
+    while (a >= 0 && a != j && p.source_of[a] < 0) a = rig.parents[a];
+    if (a == j && p.source_of[k] >= 0) below.push_back(k);
+  }
+  if (below.size() == 1) return below[0];
+  int up = -1, count = 0;
+  for (int k : below) {
+    const BodyPart part = p.part[k].part;
+    if (part == BodyPart::kSpine || part == BodyPart::kNeck || part == BodyPart::kHead) {
+      if (up < 0) up = k;
+      ++count;
+    }
+  }
+  return count >= 1 ? up : -1;
+}
+
+Pairing pair_joints(const Skeleton& source, const Skeleton& rig, const RetargetOptions& options,
+                    RetargetReport* report) {
+  Pairing p;
+  p.source_of = match_joints(source, rig, options.joint_map);
+  for (int j = 0; j < rig.num_joints(); ++j) {
+    JointPart part = classify_joint_name(rig.joint_names[j]);
+    if (p.source_of[j] >= 0 && (part.part == BodyPart::kNone || options.joint_map.count(rig.joint_names[j])))
+      part = classify_joint_name(source.joint_names[p.source_of[j]]);
+    p.part.push_back(part);
+    if (p.source_of[j] >= 0) report->pairs.emplace_back(rig.joint_names[j], source.joint_names[p.source_of[j]]);
+  }
+  p.aim.resize(p.part.size());
+  for (int j = 0; j < rig.num_joints(); ++j) p.aim[j] = p.source_of[j] >= 0 ? aim_of(rig, p, j) : -1;
+  p.hips = first_part(p, BodyPart::kHips, BodySide::kCentre);
+  for (int j = 0; j < rig.num_joints(); ++j)
+    if (p.source_of[j] >= 0 && (p.part[j].part == BodyPart::kSpine || p.part[j].part == BodyPart::kNeck))
+      if (p.spine_top < 0 || p.part[p.spine_top].part != BodyPart::kNeck) p.spine_top = j;
+  for (int s = 0; s < 2; ++s) {
+    const BodySide side = s == 0 ? BodySide::kLeft : BodySide::kRight;
+    p.thigh[s] = first_part(p, BodyPart::kThigh, side);
+    p.shin[s] = first_part(p, BodyPart::kShin, side);
+    p.foot[s] = first_part(p, BodyPart::kFoot, side);
+  }
+  return p;
+}
+
+// The body's landmarks on one side of the pairing: rig joints, or their input partners.
+struct Landmarks {
+  int hips, spine_top, thigh[2], shin[2], foot[2];
+};
+
+Landmarks landmarks(const Pairing& p, bool of_source) {
+  auto at = [&](int j) { return of_source ? p.source_of[j] : j; };
+  return {at(p.hips), at(p.spine_top), {at(p.thigh[0]), at(p.thigh[1])}, {at(p.shin[0]), at(p.shin[1])},
+          {at(p.foot[0]), at(p.foot[1])}};
+}
+
+bool stands(const WorldPoses& pose, const Landmarks& l, const Vec3& up) {
+  for (int s = 0; s < 2; ++s) {
+    const Vec3 leg = pose.position(0, l.foot[s]) - pose.position(0, l.thigh[s]);
+    if (leg.norm() < 1e-12 || leg.normalized().dot(-up) < kStandingCos) return false;
+  }
+  const Vec3 spine = pose.position(0, l.spine_top) - pose.position(0, l.hips);
+  return spine.norm() < 1e-12 || spine.normalized().dot(up) >= kStandingCos;
+}
+
+// A one-frame motion: the rest pose (rest_rotations or identity, rest offsets) when it stands,
+// else frame 0 of `frames`. *rest says which.
+Motion reference_pose(const Skeleton& skeleton, const std::vector<Quat>& rest_rotations, const Motion& frames,
+                      const Landmarks& l, const std::string& what, bool* rest) {
+  const Vec3 up = Vec3::Unit(skeleton.up_axis);
+  Motion pose = Motion::rest(skeleton, 1, 30.0);
+  if (!rest_rotations.empty()) pose.rotations = rest_rotations;
+  *rest = true;
+  if (stands(forward_kinematics(skeleton, pose), l, up)) return pose;
+  *rest = false;
+  if (frames.num_frames > 0) {
+    for (int j = 0; j < skeleton.num_joints(); ++j) {
+      pose.rotation(0, j) = frames.rotation(0, j);
+      pose.translation(0, j) = frames.translation(0, j);
+    }
+    if (stands(forward_kinematics(skeleton, pose), l, up)) return pose;
+  }
+  throw Error("retarget: neither the rest pose nor the first frame of the " + what +
+              " stands (legs down, spine up along the up axis): cannot align its rest pose");
+}
+
+// Yaw (about up) turning the input's reference pose to face the rig's: left hip onto left hip.
+Quat facing_turn(const WorldPoses& source_ref, const Landmarks& ls, const WorldPoses& rig_ref, const Landmarks& lr,
+                 const Vec3& up) {
+  auto left_of = [&](const WorldPoses& w, const Landmarks& l) {
+    Vec3 left = w.position(0, l.thigh[0]) - w.position(0, l.thigh[1]);
+    return Vec3(left - left.dot(up) * up);
+  };
+  return swing(left_of(source_ref, ls), left_of(rig_ref, lr), up);
+}
+
+// Mean length of the two legs (hip to knee to ankle) in a one-frame pose.
+double leg_length(const WorldPoses& pose, const Landmarks& l) {
+  double sum = 0;
+  for (int s = 0; s < 2; ++s)
+    sum += (pose.position(0, l.shin[s]) - pose.position(0, l.thigh[s])).norm() +
+           (pose.position(0, l.foot[s]) - pose.position(0, l.shin[s])).norm();
+  return sum / 2;
+}
+
+// What stays constant over the frames.
+struct Alignment {
+  std::vector<Quat> rig_from_source;  // [J_rig] C_j: rig world rotation = input world rotation * C_j
+  std::vector<Vec3> aim_local;        // [J_rig] the bone to aim[j] in joint j's frame, rig units
+  Motion rig_reference;               // one frame
+  double scale = 1;                   // rig units per input unit
+};
+
+Alignment align(const Skeleton& source, const WorldPoses& sref, const RetargetRig& rig, const Motion& rig_reference,
+                const Pairing& p) {
+  const Skeleton& sk = rig.skeleton;
+  const WorldPoses rref = forward_kinematics(sk, rig_reference);
+  const Landmarks ls = landmarks(p, true), lr = landmarks(p, false);
+  const Vec3 up = Vec3::Unit(sk.up_axis);
+  const Quat turn = facing_turn(sref, ls, rref, lr, up);
+  Alignment a;
+  a.rig_reference = rig_reference;
+  const double source_leg = leg_length(sref, ls);
+  if (!(source_leg > 0)) throw Error("retarget: the input's legs have no length");
+  a.scale = leg_length(rref, lr) / source_leg;
+  const int n = sk.num_joints();
+  a.rig_from_source.assign(n, Quat::Identity());
+  a.aim_local.assign(n, Vec3::Zero());
+  std::vector<Quat> bent(n);  // the rig's reference pose bent onto the input's bone directions
+  for (int j = 0; j < n; ++j) {
+    const int parent = sk.parents[j];
+    bent[j] = (parent < 0 ? Quat::Identity() : bent[parent]) * rig_reference.rotation(0, j);
+    const int s = p.source_of[j];
+    if (s < 0) continue;
+    const int k = p.aim[j];
+    if (k >= 0) {
+      a.aim_local[j] = rref.rotation(0, j).conjugate() * (rref.position(0, k) - rref.position(0, j));
+      const Vec3 wanted = turn * (sref.position(0, p.source_of[k]) - sref.position(0, s));
+      bent[j] = swing(bent[j] * a.aim_local[j], wanted, up) * bent[j];
+    }
+    a.rig_from_source[j] = (sref.rotation(0, s).conjugate() * turn.conjugate() * bent[j]).normalized();
+  }
+  return a;
+}
+
+// Frame t's local rotations: paired joints from the input's world rotations, aimed along the
+// input's bones; unpaired ones as in the reference pose. Returns the world rotations.
+std::vector<Quat> pose_frame(const Skeleton& rig, const Pairing& p, const Alignment& a, const WorldPoses& source_world,
+                             int t, Motion* out) {
+  const int n = rig.num_joints();
+  std::vector<Quat> world(n);
+  for (int j = 0; j < n; ++j) {
+    const int parent = rig.parents[j], s = p.source_of[j];
+    const Quat parent_world = parent < 0 ? Quat::Identity() : world[parent];
+    if (s < 0) {
+      world[j] = parent_world * a.rig_reference.rotation(0, j);
+    } else {
+      Quat w = source_world.rotation(t, s) * a.rig_from_source[j];
+      const int k = p.aim[j];
+      if (k >= 0)
+        w = swing(w * a.aim_local[j], source_world.position(t, p.source_of[k]) - source_world.position(t, s),
+                  Vec3::Unit(rig.up_axis)) * w;
+      world[j] = w.normalized();
+    }
+    out->rotation(t, j) = (parent_world.conjugate() * world[j]).normalized();
+  }
+  return world;
+}
+
+// Frame t's translations: rest offsets (the reference's for the root), the hips moved to the
+// input's scaled position through the hips when the rig can translate them, else the root.
+void place_hips(const RetargetRig& rig, const Pairing& p, const Alignment& a, const std::vector<Quat>& world,
+                const Vec3& hips_target, int t, Motion* out) {
+  const Skeleton& sk = rig.skeleton;
+  for (int j = 0; j < sk.num_joints(); ++j) out->translation(t, j) = sk.offsets[j];
+  out->translation(t, 0) = a.rig_reference.translation(0, 0);
+  std::vector<int> path;  // hips up to the root
+  for (int j = p.hips; j >= 0; j = sk.parents[j]) path.push_back(j);
+  Vec3 at = out->translation(t, 0);
+  for (size_t i = path.size() - 1; i-- > 0;) at += world[sk.parents[path[i]]] * out->translation(t, path[i]);
+  const Vec3 delta = hips_target - at;
+  const bool hips_move = p.hips == 0 || rig.translatable.empty() || rig.translatable[p.hips];
+  if (hips_move && p.hips != 0)
+    out->translation(t, p.hips) += world[sk.parents[p.hips]].conjugate() * delta;
+  else
+    out->translation(t, 0) += delta;
+}
+
+// Per frame, the largest contact weight of one ankle and its target there.
+struct Plant {
+  std::vector<double> weight;
+  std::vector<Vec3> target;
+};
+
+Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle, const WorldPoses& rw, int rig_ankle,
+                 double scale, const RetargetOptions& o, double fps, int* contacts) {
+  const int n = sw.num_frames;
+  const Vec3 up = Vec3::Unit(source.up_axis);
+  Plant plant{std::vector<double>(n, 0.0), std::vector<Vec3>(n, Vec3::Zero())};
+  const int blend = contact_blend_frames(o.contacts, fps);
+  for (const auto& [begin, end] : find_contacts(source, sw, source_ankle, o.contacts, fps)) {
+    ++*contacts;
+    // The rig's own stance (hip width, proportions) as a constant horizontal offset.
+    Vec3 offset = Vec3::Zero();
+    for (int t = begin; t < end; ++t) offset += rw.position(t, rig_ankle) - scale * sw.position(t, source_ankle);
+    offset /= (end - begin);
+    offset -= offset.dot(up) * up;
+    for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
+      const double w = contact_weight(t, begin, end, blend);
+      if (w <= plant.weight[t]) continue;
+      plant.weight[t] = w;
+      plant.target[t] = scale * sw.position(t, source_ankle) + offset;
+    }
+  }
+  return plant;
+}
+
+// Two-bone IK of each leg whose thigh, shin and foot are parent and child, onto the input's
+// contacts (see the top of retarget.h).
+void plant_feet(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p,
+                double scale, const RetargetOptions& o, Motion* out, int* contacts) {
+  const Skeleton& sk = rig.skeleton;
+  const WorldPoses rw = forward_kinematics(sk, *out);
+  for (int s = 0; s < 2; ++s) {
+    const LegChain leg{p.thigh[s], p.shin[s], p.foot[s]};
+    if (sk.parents[leg.ankle] != leg.knee || sk.parents[leg.knee] != leg.hip) continue;
+    const Plant plant = plan_plant(source, sw, p.source_of[leg.ankle], rw, leg.ankle, scale, o, out->fps, contacts);
+    for (int t = 0; t < out->num_frames; ++t) {
+      if (plant.weight[t] <= 0) continue;
+      const Vec3 free = rw.position(t, leg.ankle);
+      reach_with_leg(sk, rw, t, leg, free + plant.weight[t] * (plant.target[t] - free), out, t);
+    }
+  }
+}
+
+void check_inputs(const Skeleton& source, const Motion& motion, const RetargetRig& rig) {
+  source.validate();
+  motion.validate();
+  rig.skeleton.validate();
+  const int n = rig.skeleton.num_joints();
+  if (motion.num_joints != source.num_joints())
+    throw Error("retarget: the motion has " + std::to_string(motion.num_joints) + " joints, its skeleton " +
+                std::to_string(source.num_joints()));
+  if (!rig.rest_rotations.empty() && static_cast<int>(rig.rest_rotations.size()) != n)
+    throw Error("retarget: the rig has " + std::to_string(rig.rest_rotations.size()) + " rest rotations for " +
+                std::to_string(n) + " joints");
+  if (!rig.translatable.empty() && static_cast<int>(rig.translatable.size()) != n)
+    throw Error("retarget: the rig's translatable flags do not match its joints");
+  if (rig.frames.num_frames > 0) {
+    rig.frames.validate();
+    if (rig.frames.num_joints != n) throw Error("retarget: the rig's frames do not match its joints");
+  }
+  for (const Quat& q : rig.rest_rotations)
+    if (!q.coeffs().allFinite() || std::abs(q.norm() - 1) > 1e-3)
+      throw Error("retarget: the rig's rest rotations must be finite unit quaternions");
+  if (source.up_axis != rig.skeleton.up_axis) throw Error("retarget: the input and the rig have different up axes");
+}
+
+}  // namespace
+
+Motion retarget(const Skeleton& source_in, const Motion& motion, const RetargetRig& rig, const RetargetOptions& options,
+                RetargetReport* report) {
+  check_inputs(source_in, motion, rig);
+  RetargetReport local_report;
+  RetargetReport* r = report ? report : &local_report;
+  *r = RetargetReport{};
+  Skeleton source = source_in;  // contacts are found in metres
+  source.meters_per_unit = resolve_meters_per_unit(source_in);
+  const Pairing p = pair_joints(source, rig.skeleton, options, r);
+  const Motion source_reference = reference_pose(source, {}, motion, landmarks(p, true), "input", &r->input_rest_reference);
+  const Motion rig_reference =
+      reference_pose(rig.skeleton, rig.rest_rotations, rig.frames, landmarks(p, false), "rig", &r->rig_rest_reference);
+  const Alignment a = align(source, forward_kinematics(source, source_reference), rig, rig_reference, p);
+  r->scale = a.scale;
+
+  const WorldPoses sw = forward_kinematics(source, motion);
+  Motion out = Motion::rest(rig.skeleton, motion.num_frames, motion.fps);
+  const int source_hips = p.source_of[p.hips];
+  for (int t = 0; t < motion.num_frames; ++t) {
+    const std::vector<Quat> world = pose_frame(rig.skeleton, p, a, sw, t, &out);
+    place_hips(rig, p, a, world, a.scale * sw.position(t, source_hips), t, &out);
+  }
+  if (options.plant_feet && motion.num_frames > 1) plant_feet(source, sw, rig, p, a.scale, options, &out, &r->contacts);
+  out.validate();
+  return out;
+}
+
+}  // namespace mosyn

@@ -1,0 +1,71 @@
+// Retargeting: a motion of one skeleton (the input) played on another (the rig), on the rig's
+// own hierarchy, offsets and rest pose.
+//
+// How it works:
+// - Joints are paired by name (core/joint_names.h) or by an explicit map.
+// - Reference poses: each skeleton's rest pose when it stands (legs down, spine up), else the
+//   first frame of its own motion (rigs with Maya-style joint orients, whose rest pose has every
+//   bone along x, as Bandai-Namco's). The rig's reference pose is bent, bone by bone, so that
+//   every paired bone points along the input's in the input's reference pose (turned to face the
+//   rig's way); that fixes, per paired joint, the constant rotation between the two skeletons'
+//   joint frames (T-pose, A-pose and joint orients all cancel in world space).
+// - Each frame, a paired joint takes the input joint's world rotation through that constant
+//   rotation, then swings so its bone (to the next paired joint below it) points exactly where
+//   the input's does. Unpaired rig joints keep their reference (rest) local rotation.
+// - The hips travel the input's path scaled by the leg-length ratio (rig / input: hip to knee to
+//   ankle), floor included.
+// - Feet: contacts are found on the input's ankles (core/foot_lock.h find_contacts); during a
+//   contact the rig's ankle follows the input's scaled ankle (horizontally at the rig's own mean
+//   offset from it over the contact, vertically exactly), by two-bone IK (reach_with_leg), blended
+//   in and out, so the rig's feet stay planted where the input's are and on its floor.
+//
+// Both skeletons must share the up axis (Skeleton::up_axis). Lengths stay in each skeleton's own
+// units: the scale between them comes from the leg lengths, so units cancel.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/foot_lock.h"
+#include "core/skeleton.h"
+
+namespace mosyn {
+
+// The skeleton to retarget onto, as a rig file holds it.
+struct RetargetRig {
+  Skeleton skeleton;
+  // [J] local rest rotations (w, x, y, z) of the rig's joints (glTF node rotations); empty means
+  // identity for every joint (BVH).
+  std::vector<Eigen::Quaterniond> rest_rotations;
+  // Frames of the rig's own file, if any (num_frames may be 0): frame 0 is its reference pose
+  // when the rest pose does not stand.
+  Motion frames;
+  // [J] whether the rig can animate a joint's translation (BVH position channels); empty means
+  // every joint can. The hips path goes to the hips when they can move, else to the root.
+  std::vector<bool> translatable;
+};
+
+struct RetargetOptions {
+  std::map<std::string, std::string> joint_map;  // rig joint name -> input joint name (wins over names)
+  bool plant_feet = true;                        // two-bone IK on the input's contacts
+  FootLockOptions contacts;                      // contact detection on the input's ankles
+};
+
+struct RetargetReport {
+  double scale = 1.0;  // rig length units per input length unit (leg-length ratio)
+  std::vector<std::pair<std::string, std::string>> pairs;  // (rig joint, input joint) in rig order
+  bool input_rest_reference = true;  // false: the input's first frame served as its reference pose
+  bool rig_rest_reference = true;    // false: the rig file's first frame did
+  int contacts = 0;                  // contact intervals planted, over all legs
+};
+
+// The motion on the rig: [T, J_rig] local rotations and translations (rig units), the input's
+// frames and fps. `source` and `motion` are the input (any units). Throws mosyn::Error when the
+// motion does not fit its skeleton or is not finite, the rig is invalid, the joints cannot be
+// paired (core/joint_names.h match_joints names them), neither skeleton's rest pose nor first
+// frame stands, or the up axes differ.
+Motion retarget(const Skeleton& source, const Motion& motion, const RetargetRig& rig,
+                const RetargetOptions& options = {}, RetargetReport* report = nullptr);
+
+}  // namespace mosyn
