@@ -34,7 +34,7 @@ struct Pairing {
   std::vector<int> aim;            // [J_rig] paired rig joint below whose bone the joint aims, or -1
   int hips = -1;                   // rig joints
   int spine_top = -1;              // the neck, else the last spine joint
-  int thigh[2] = {-1, -1}, shin[2] = {-1, -1}, foot[2] = {-1, -1};  // [left, right]
+  int thigh[2] = {-1, -1}, shin[2] = {-1, -1}, foot[2] = {-1, -1}, toe[2] = {-1, -1};  // [left, right]
 };
 
 int first_part(const Pairing& p, BodyPart part, BodySide side) {
@@ -45,7 +45,11 @@ int first_part(const Pairing& p, BodyPart part, BodySide side) {
 
 // The paired joint below j that j's bone aims at: the only one, or the only one up the body
 // (spine, neck, head: what the hips and chest point at, not the legs and arms beside them).
+// Feet never aim: rigs differ in ankle height and foot length, so a foot turned onto the input's
+// ankle-to-toe line would put its toes through the floor; it keeps its turn from the reference
+// pose instead (flat stays flat).
 int aim_of(const Skeleton& rig, const Pairing& p, int j) {
+  if (p.part[j].part == BodyPart::kFoot || p.part[j].part == BodyPart::kToe) return -1;
   std::vector<int> below;
   for (int k = j + 1; k < rig.num_joints(); ++k) {
     int a = rig.parents[k];
@@ -86,19 +90,24 @@ Pairing pair_joints(const Skeleton& source, const Skeleton& rig, const RetargetO
     p.thigh[s] = first_part(p, BodyPart::kThigh, side);
     p.shin[s] = first_part(p, BodyPart::kShin, side);
     p.foot[s] = first_part(p, BodyPart::kFoot, side);
+    p.toe[s] = first_part(p, BodyPart::kToe, side);
   }
   return p;
 }
 
 // The body's landmarks on one side of the pairing: rig joints, or their input partners.
 struct Landmarks {
-  int hips, spine_top, thigh[2], shin[2], foot[2];
+  int hips, spine_top, thigh[2], shin[2], foot[2], toe[2];  // toe -1 where the rig has none
 };
 
 Landmarks landmarks(const Pairing& p, bool of_source) {
-  auto at = [&](int j) { return of_source ? p.source_of[j] : j; };
-  return {at(p.hips), at(p.spine_top), {at(p.thigh[0]), at(p.thigh[1])}, {at(p.shin[0]), at(p.shin[1])},
-          {at(p.foot[0]), at(p.foot[1])}};
+  auto at = [&](int j) { return j < 0 ? -1 : of_source ? p.source_of[j] : j; };
+  return {at(p.hips),
+          at(p.spine_top),
+          {at(p.thigh[0]), at(p.thigh[1])},
+          {at(p.shin[0]), at(p.shin[1])},
+          {at(p.foot[0]), at(p.foot[1])},
+          {at(p.toe[0]), at(p.toe[1])}};
 }
 
 bool stands(const WorldPoses& pose, const Landmarks& l, const Vec3& up) {
@@ -110,8 +119,40 @@ bool stands(const WorldPoses& pose, const Landmarks& l, const Vec3& up) {
   return spine.norm() < 1e-12 || spine.normalized().dot(up) >= kStandingCos;
 }
 
+// Height above the lowest height over the frames, along up, of joint j at frame t.
+double above_lowest(const WorldPoses& w, int t, int j, const Vec3& up) {
+  double lowest = w.position(0, j).dot(up);
+  for (int u = 1; u < w.num_frames; ++u) lowest = std::min(lowest, w.position(u, j).dot(up));
+  return w.position(t, j).dot(up) - lowest;
+}
+
+// The frame of `frames` that stands with both ankles nearest their lowest heights (both feet
+// down, so flat), or -1 when no frame stands.
+int standing_frame(const Skeleton& skeleton, const Motion& frames, const Landmarks& l) {
+  if (frames.num_frames == 0) return -1;
+  const Vec3 up = Vec3::Unit(skeleton.up_axis);
+  const WorldPoses w = forward_kinematics(skeleton, frames);
+  std::vector<double> lowest(2);
+  for (int s = 0; s < 2; ++s) lowest[s] = w.position(0, l.foot[s]).dot(up) - above_lowest(w, 0, l.foot[s], up);
+  int best = -1;
+  double best_height = 0;
+  for (int t = 0; t < frames.num_frames; ++t) {
+    const double height = std::max(w.position(t, l.foot[0]).dot(up) - lowest[0], w.position(t, l.foot[1]).dot(up) - lowest[1]);
+    if (best >= 0 && height >= best_height) continue;
+    Motion one = Motion::rest(skeleton, 1, frames.fps);
+    for (int j = 0; j < skeleton.num_joints(); ++j) {
+      one.rotation(0, j) = frames.rotation(t, j);
+      one.translation(0, j) = frames.translation(t, j);
+    }
+    if (!stands(forward_kinematics(skeleton, one), l, up)) continue;
+    best = t;
+    best_height = height;
+  }
+  return best;
+}
+
 // A one-frame motion: the rest pose (rest_rotations or identity, rest offsets) when it stands,
-// else frame 0 of `frames`. *rest says which.
+// else the frame of `frames` that stands with both feet down. *rest says which.
 Motion reference_pose(const Skeleton& skeleton, const std::vector<Quat>& rest_rotations, const Motion& frames,
                       const Landmarks& l, const std::string& what, bool* rest) {
   const Vec3 up = Vec3::Unit(skeleton.up_axis);
@@ -120,15 +161,15 @@ Motion reference_pose(const Skeleton& skeleton, const std::vector<Quat>& rest_ro
   *rest = true;
   if (stands(forward_kinematics(skeleton, pose), l, up)) return pose;
   *rest = false;
-  if (frames.num_frames > 0) {
-    for (int j = 0; j < skeleton.num_joints(); ++j) {
-      pose.rotation(0, j) = frames.rotation(0, j);
-      pose.translation(0, j) = frames.translation(0, j);
-    }
-    if (stands(forward_kinematics(skeleton, pose), l, up)) return pose;
+  const int t = standing_frame(skeleton, frames, l);
+  if (t < 0)
+    throw Error("retarget: neither the rest pose nor any frame of the " + what +
+                " stands (legs down, spine up along the up axis): cannot align its rest pose");
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    pose.rotation(0, j) = frames.rotation(t, j);
+    pose.translation(0, j) = frames.translation(t, j);
   }
-  throw Error("retarget: neither the rest pose nor the first frame of the " + what +
-              " stands (legs down, spine up along the up axis): cannot align its rest pose");
+  return pose;
 }
 
 // Yaw (about up) turning the input's reference pose to face the rig's: left hip onto left hip.
@@ -150,13 +191,41 @@ double leg_length(const WorldPoses& pose, const Landmarks& l) {
   return sum / 2;
 }
 
+// Height of the ankle above the toe joint below it when the foot is down: the difference of their
+// lowest heights over the frames of `w` (a standing pose will do). 0 without a toe.
+double toe_drop(const WorldPoses& w, int foot, int toe, const Vec3& up) {
+  if (toe < 0) return 0;
+  return (w.position(0, foot).dot(up) - above_lowest(w, 0, foot, up)) -
+         (w.position(0, toe).dot(up) - above_lowest(w, 0, toe, up));
+}
+
 // What stays constant over the frames.
 struct Alignment {
   std::vector<Quat> rig_from_source;  // [J_rig] C_j: rig world rotation = input world rotation * C_j
   std::vector<Vec3> aim_local;        // [J_rig] the bone to aim[j] in joint j's frame, rig units
   Motion rig_reference;               // one frame
   double scale = 1;                   // rig units per input unit
+  // Rig units along up added to the scaled path: the rig's ankle height above its toe joints minus
+  // the input's, scaled, so the rig's toes stand on the input's floor, scaled.
+  double lift = 0;
+  // The midpoint of the rig's hip sockets (thigh joints) in its hips' frame: the path is the
+  // sockets', so rigs whose hips joint sits higher above the legs stand as tall.
+  Vec3 sockets_local = Vec3::Zero();
 };
+
+// The rig's toes stand where the input's do, scaled: the difference of the ankles' heights above
+// the toes in the two reference poses (both standing, feet down).
+double lift_of(const WorldPoses& source_reference, const WorldPoses& rig_reference, const Pairing& p, double scale,
+               const Vec3& up) {
+  const Landmarks ls = landmarks(p, true), lr = landmarks(p, false);
+  double lift = 0;
+  for (int s = 0; s < 2; ++s) {
+    if (lr.toe[s] < 0) return 0;
+    lift += 0.5 * (toe_drop(rig_reference, lr.foot[s], lr.toe[s], up) -
+                   scale * toe_drop(source_reference, ls.foot[s], ls.toe[s], up));
+  }
+  return lift;
+}
 
 Alignment align(const Skeleton& source, const WorldPoses& sref, const RetargetRig& rig, const Motion& rig_reference,
                 const Pairing& p) {
@@ -170,6 +239,9 @@ Alignment align(const Skeleton& source, const WorldPoses& sref, const RetargetRi
   const double source_leg = leg_length(sref, ls);
   if (!(source_leg > 0)) throw Error("retarget: the input's legs have no length");
   a.scale = leg_length(rref, lr) / source_leg;
+  a.lift = lift_of(sref, rref, p, a.scale, up);
+  a.sockets_local = rref.rotation(0, p.hips).conjugate() *
+                    (0.5 * (rref.position(0, lr.thigh[0]) + rref.position(0, lr.thigh[1])) - rref.position(0, p.hips));
   const int n = sk.num_joints();
   a.rig_from_source.assign(n, Quat::Identity());
   a.aim_local.assign(n, Vec3::Zero());
@@ -179,6 +251,10 @@ Alignment align(const Skeleton& source, const WorldPoses& sref, const RetargetRi
     bent[j] = (parent < 0 ? Quat::Identity() : bent[parent]) * rig_reference.rotation(0, j);
     const int s = p.source_of[j];
     if (s < 0) continue;
+    // Feet stand flat in both reference poses whatever the legs above them do: they keep their
+    // world orientation rather than riding on the shins' swings.
+    const BodyPart part = p.part[j].part;
+    if (part == BodyPart::kFoot || part == BodyPart::kToe) bent[j] = rref.rotation(0, j);
     const int k = p.aim[j];
     if (k >= 0) {
       a.aim_local[j] = rref.rotation(0, j).conjugate() * (rref.position(0, k) - rref.position(0, j));
@@ -240,7 +316,7 @@ struct Plant {
 };
 
 Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle, const WorldPoses& rw, int rig_ankle,
-                 double scale, const RetargetOptions& o, double fps, int* contacts) {
+                 const Alignment& a, const RetargetOptions& o, double fps, int* contacts) {
   const int n = sw.num_frames;
   const Vec3 up = Vec3::Unit(source.up_axis);
   Plant plant{std::vector<double>(n, 0.0), std::vector<Vec3>(n, Vec3::Zero())};
@@ -249,35 +325,66 @@ Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle,
     ++*contacts;
     // The rig's own stance (hip width, proportions) as a constant horizontal offset.
     Vec3 offset = Vec3::Zero();
-    for (int t = begin; t < end; ++t) offset += rw.position(t, rig_ankle) - scale * sw.position(t, source_ankle);
+    for (int t = begin; t < end; ++t) offset += rw.position(t, rig_ankle) - a.scale * sw.position(t, source_ankle);
     offset /= (end - begin);
-    offset -= offset.dot(up) * up;
+    offset += (a.lift - offset.dot(up)) * up;
     for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
       const double w = contact_weight(t, begin, end, blend);
       if (w <= plant.weight[t]) continue;
       plant.weight[t] = w;
-      plant.target[t] = scale * sw.position(t, source_ankle) + offset;
+      plant.target[t] = a.scale * sw.position(t, source_ankle) + offset;
     }
   }
   return plant;
 }
 
+// Where the input's toe stays on the floor after its ankle has let go (the heel lifts), the rig's
+// toe follows it, scaled, from where the ankle's contact left it, until it has lifted off: the
+// ankle moves by the toe's correction, the foot keeping its world orientation.
+void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p, int side,
+               const Alignment& a, const RetargetOptions& o, const std::vector<double>& ankle_weight, Motion* out) {
+  const Skeleton& sk = rig.skeleton;
+  const int toe = p.toe[side], foot = p.foot[side];
+  if (toe < 0 || sk.parents[toe] != foot) return;
+  const LegChain leg{p.thigh[side], p.shin[side], foot};
+  const WorldPoses rw = forward_kinematics(sk, *out);
+  const int n = out->num_frames, blend = contact_blend_frames(o.contacts, out->fps);
+  const int source_toe = p.source_of[toe];
+  for (const auto& [begin, end] : find_contacts(source, sw, source_toe, o.contacts, out->fps)) {
+    int t0 = begin;
+    while (t0 < end && ankle_weight[t0] >= 1) ++t0;
+    if (t0 == end) continue;
+    // Rises and slides as the input's toe does, scaled, from where it stood at t0.
+    const Vec3 offset = rw.position(t0, toe) - a.scale * sw.position(t0, source_toe);
+    for (int t = t0; t < std::min(n, end + blend); ++t) {
+      if (ankle_weight[t] >= 1) continue;
+      const double w = t < end ? 1.0 : contact_weight(t, begin, end, blend);
+      const Vec3 move = a.scale * sw.position(t, source_toe) + offset - rw.position(t, toe);
+      reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + w * move, out, t);
+    }
+  }
+}
+
 // Two-bone IK of each leg whose thigh, shin and foot are parent and child, onto the input's
 // contacts (see the top of retarget.h).
 void plant_feet(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p,
-                double scale, const RetargetOptions& o, Motion* out, int* contacts) {
+                const Alignment& a, const RetargetOptions& o, Motion* out, int* contacts) {
   const Skeleton& sk = rig.skeleton;
   const WorldPoses rw = forward_kinematics(sk, *out);
+  std::vector<double> weights[2];
   for (int s = 0; s < 2; ++s) {
     const LegChain leg{p.thigh[s], p.shin[s], p.foot[s]};
     if (sk.parents[leg.ankle] != leg.knee || sk.parents[leg.knee] != leg.hip) continue;
-    const Plant plant = plan_plant(source, sw, p.source_of[leg.ankle], rw, leg.ankle, scale, o, out->fps, contacts);
+    const Plant plant = plan_plant(source, sw, p.source_of[leg.ankle], rw, leg.ankle, a, o, out->fps, contacts);
     for (int t = 0; t < out->num_frames; ++t) {
       if (plant.weight[t] <= 0) continue;
       const Vec3 free = rw.position(t, leg.ankle);
       reach_with_leg(sk, rw, t, leg, free + plant.weight[t] * (plant.target[t] - free), out, t);
     }
+    weights[s] = plant.weight;
   }
+  for (int s = 0; s < 2; ++s)
+    if (!weights[s].empty()) plant_toe(source, sw, rig, p, s, a, o, weights[s], out);
 }
 
 void check_inputs(const Skeleton& source, const Motion& motion, const RetargetRig& rig) {
@@ -317,17 +424,20 @@ Motion retarget(const Skeleton& source_in, const Motion& motion, const RetargetR
   const Motion source_reference = reference_pose(source, {}, motion, landmarks(p, true), "input", &r->input_rest_reference);
   const Motion rig_reference =
       reference_pose(rig.skeleton, rig.rest_rotations, rig.frames, landmarks(p, false), "rig", &r->rig_rest_reference);
+  const WorldPoses sw = forward_kinematics(source, motion);
   const Alignment a = align(source, forward_kinematics(source, source_reference), rig, rig_reference, p);
   r->scale = a.scale;
+  r->lift = a.lift;
 
-  const WorldPoses sw = forward_kinematics(source, motion);
   Motion out = Motion::rest(rig.skeleton, motion.num_frames, motion.fps);
-  const int source_hips = p.source_of[p.hips];
+  const int source_thigh[2] = {p.source_of[p.thigh[0]], p.source_of[p.thigh[1]]};
+  const Vec3 lift = a.lift * Vec3::Unit(rig.skeleton.up_axis);
   for (int t = 0; t < motion.num_frames; ++t) {
     const std::vector<Quat> world = pose_frame(rig.skeleton, p, a, sw, t, &out);
-    place_hips(rig, p, a, world, a.scale * sw.position(t, source_hips), t, &out);
+    const Vec3 sockets = 0.5 * (sw.position(t, source_thigh[0]) + sw.position(t, source_thigh[1]));
+    place_hips(rig, p, a, world, a.scale * sockets + lift - world[p.hips] * a.sockets_local, t, &out);
   }
-  if (options.plant_feet && motion.num_frames > 1) plant_feet(source, sw, rig, p, a.scale, options, &out, &r->contacts);
+  if (options.plant_feet && motion.num_frames > 1) plant_feet(source, sw, rig, p, a, options, &out, &r->contacts);
   out.validate();
   return out;
 }

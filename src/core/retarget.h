@@ -4,20 +4,26 @@
 // How it works:
 // - Joints are paired by name (core/joint_names.h) or by an explicit map.
 // - Reference poses: each skeleton's rest pose when it stands (legs down, spine up), else the
-//   first frame of its own motion (rigs with Maya-style joint orients, whose rest pose has every
-//   bone along x, as Bandai-Namco's). The rig's reference pose is bent, bone by bone, so that
+//   frame of its own motion that stands with both feet lowest (rigs with Maya-style joint orients,
+//   whose rest pose has every bone along x, as Bandai-Namco's). The rig's reference pose is bent, bone by bone, so that
 //   every paired bone points along the input's in the input's reference pose (turned to face the
 //   rig's way); that fixes, per paired joint, the constant rotation between the two skeletons'
 //   joint frames (T-pose, A-pose and joint orients all cancel in world space).
 // - Each frame, a paired joint takes the input joint's world rotation through that constant
 //   rotation, then swings so its bone (to the next paired joint below it) points exactly where
 //   the input's does. Unpaired rig joints keep their reference (rest) local rotation.
-// - The hips travel the input's path scaled by the leg-length ratio (rig / input: hip to knee to
-//   ankle), floor included.
+// - The hips (the midpoint of the hip sockets, so a hips joint higher above the legs changes
+//   nothing) travel the input's path scaled by the leg-length ratio (rig / input: hip to knee to
+//   ankle), floor included, raised by the difference of the ankles' heights above the toe joints
+//   (rig minus input, scaled; in the reference poses), so the rig's toes stand where the input's
+//   do, scaled.
+// - Feet and toes turn as the input's do from its reference pose (flat stays flat); they are not
+//   aimed along the input's foot, whose length and ankle height differ.
 // - Feet: contacts are found on the input's ankles (core/foot_lock.h find_contacts); during a
 //   contact the rig's ankle follows the input's scaled ankle (horizontally at the rig's own mean
 //   offset from it over the contact, vertically exactly), by two-bone IK (reach_with_leg), blended
-//   in and out, so the rig's feet stay planted where the input's are and on its floor.
+//   in and out, so the rig's feet stay planted where the input's are and on its floor. Where the
+//   input's toe stays down after its heel lifts, the rig's toe follows it likewise.
 //
 // Both skeletons must share the up axis (Skeleton::up_axis). Lengths stay in each skeleton's own
 // units: the scale between them comes from the leg lengths, so units cancel.
@@ -38,8 +44,8 @@ struct RetargetRig {
   // [J] local rest rotations (w, x, y, z) of the rig's joints (glTF node rotations); empty means
   // identity for every joint (BVH).
   std::vector<Eigen::Quaterniond> rest_rotations;
-  // Frames of the rig's own file, if any (num_frames may be 0): frame 0 is its reference pose
-  // when the rest pose does not stand.
+  // Frames of the rig's own file, if any (num_frames may be 0): where the rest pose does not
+  // stand, the frame standing with both feet lowest is its reference pose.
   Motion frames;
   // [J] whether the rig can animate a joint's translation (BVH position channels); empty means
   // every joint can. The hips path goes to the hips when they can move, else to the root.
@@ -54,17 +60,20 @@ struct RetargetOptions {
 
 struct RetargetReport {
   double scale = 1.0;  // rig length units per input length unit (leg-length ratio)
+  // Rig units along up added to the scaled path: the rig's ankle height above its toe joints minus
+  // the input's, scaled, so the toes of both stand on one floor.
+  double lift = 0.0;
   std::vector<std::pair<std::string, std::string>> pairs;  // (rig joint, input joint) in rig order
-  bool input_rest_reference = true;  // false: the input's first frame served as its reference pose
-  bool rig_rest_reference = true;    // false: the rig file's first frame did
+  bool input_rest_reference = true;  // false: a frame of the input served as its reference pose
+  bool rig_rest_reference = true;    // false: a frame of the rig's file did
   int contacts = 0;                  // contact intervals planted, over all legs
 };
 
 // The motion on the rig: [T, J_rig] local rotations and translations (rig units), the input's
 // frames and fps. `source` and `motion` are the input (any units). Throws mosyn::Error when the
 // motion does not fit its skeleton or is not finite, the rig is invalid, the joints cannot be
-// paired (core/joint_names.h match_joints names them), neither skeleton's rest pose nor first
-// frame stands, or the up axes differ.
+// paired (core/joint_names.h match_joints names them), a skeleton has neither a standing rest pose
+// nor a standing frame, or the up axes differ.
 Motion retarget(const Skeleton& source, const Motion& motion, const RetargetRig& rig,
                 const RetargetOptions& options = {}, RetargetReport* report = nullptr);
 
