@@ -323,24 +323,25 @@ Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle,
   const int blend = contact_blend_frames(o.contacts, fps);
   for (const auto& [begin, end] : find_contacts(source, sw, source_ankle, o.contacts, fps)) {
     ++*contacts;
-    // The rig's own stance (hip width, proportions) as a constant horizontal offset.
-    Vec3 offset = Vec3::Zero();
-    for (int t = begin; t < end; ++t) offset += rw.position(t, rig_ankle) - a.scale * sw.position(t, source_ankle);
-    offset /= (end - begin);
-    offset += (a.lift - offset.dot(up)) * up;
+    // One floor position per contact, horizontally: the mean of the rig's own ankle over it (its
+    // own stance, hip width and proportions, moved least); vertically the input's ankle, scaled.
+    Vec3 pin = Vec3::Zero();
+    for (int t = begin; t < end; ++t) pin += rw.position(t, rig_ankle);
+    pin /= (end - begin);
+    pin -= pin.dot(up) * up;
     for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
       const double w = contact_weight(t, begin, end, blend);
       if (w <= plant.weight[t]) continue;
       plant.weight[t] = w;
-      plant.target[t] = a.scale * sw.position(t, source_ankle) + offset;
+      plant.target[t] = pin + (a.scale * sw.position(t, source_ankle).dot(up) + a.lift) * up;
     }
   }
   return plant;
 }
 
 // Where the input's toe stays on the floor after its ankle has let go (the heel lifts), the rig's
-// toe follows it, scaled, from where the ankle's contact left it, until it has lifted off: the
-// ankle moves by the toe's correction, the foot keeping its world orientation.
+// toe stays where the ankle's contact left it, rising as the input's does, until it has lifted
+// off: the ankle moves by the toe's correction, the foot keeping its world orientation.
 void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p, int side,
                const Alignment& a, const RetargetOptions& o, const std::vector<double>& ankle_weight, Motion* out) {
   const Skeleton& sk = rig.skeleton;
@@ -348,19 +349,21 @@ void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& 
   if (toe < 0 || sk.parents[toe] != foot) return;
   const LegChain leg{p.thigh[side], p.shin[side], foot};
   const WorldPoses rw = forward_kinematics(sk, *out);
+  const Vec3 up = Vec3::Unit(sk.up_axis);
   const int n = out->num_frames, blend = contact_blend_frames(o.contacts, out->fps);
   const int source_toe = p.source_of[toe];
   for (const auto& [begin, end] : find_contacts(source, sw, source_toe, o.contacts, out->fps)) {
     int t0 = begin;
     while (t0 < end && ankle_weight[t0] >= 1) ++t0;
     if (t0 == end) continue;
-    // Rises and slides as the input's toe does, scaled, from where it stood at t0.
-    const Vec3 offset = rw.position(t0, toe) - a.scale * sw.position(t0, source_toe);
+    // Stays where it stood at t0, rising as the input's toe does, scaled.
+    const Vec3 pin = rw.position(t0, toe);
+    const double rise = pin.dot(up) - a.scale * sw.position(t0, source_toe).dot(up);
     for (int t = t0; t < std::min(n, end + blend); ++t) {
       if (ankle_weight[t] >= 1) continue;
       const double w = t < end ? 1.0 : contact_weight(t, begin, end, blend);
-      const Vec3 move = a.scale * sw.position(t, source_toe) + offset - rw.position(t, toe);
-      reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + w * move, out, t);
+      const Vec3 target = pin + (a.scale * sw.position(t, source_toe).dot(up) + rise - pin.dot(up)) * up;
+      reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + w * (target - rw.position(t, toe)), out, t);
     }
   }
 }

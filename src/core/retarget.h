@@ -20,10 +20,11 @@
 // - Feet and toes turn as the input's do from its reference pose (flat stays flat); they are not
 //   aimed along the input's foot, whose length and ankle height differ.
 // - Feet: contacts are found on the input's ankles (core/foot_lock.h find_contacts); during a
-//   contact the rig's ankle follows the input's scaled ankle (horizontally at the rig's own mean
-//   offset from it over the contact, vertically exactly), by two-bone IK (reach_with_leg), blended
-//   in and out, so the rig's feet stay planted where the input's are and on its floor. Where the
-//   input's toe stays down after its heel lifts, the rig's toe follows it likewise.
+//   contact the rig's ankle is pinned by two-bone IK (reach_with_leg), blended in and out:
+//   horizontally to one point (the mean of its own position over the contact), vertically to the
+//   input's ankle height, scaled and lifted, so the rig's feet stay planted where the input's are
+//   and on its floor. Where the input's toe stays down after its heel lifts, the rig's toe stays
+//   where the heel's contact left it, rising as the input's toe does, until it lifts off.
 //
 // Both skeletons must share the up axis (Skeleton::up_axis). Lengths stay in each skeleton's own
 // units: the scale between them comes from the leg lengths, so units cancel.
