@@ -160,25 +160,40 @@ const std::vector<std::array<std::string, 4>> kLimbs = {
     {"UpperArm_R", "LowerArm_R", "RightArm", "RightForeArm"}, {"LowerArm_R", "Hand_R", "RightForeArm", "RightHand"},
     {"Spine", "Neck", "LowerBack", "Neck"}};
 
-// Mean and largest angle (degrees) between the world directions of the limbs in two clips; each
-// clip's joints are named as Bandai-Namco's (true) or CMU's.
-std::pair<double, double> limb_angles_deg(const Clip& a, bool a_bandai, const Clip& b, bool b_bandai) {
+struct LimbAngles {
+  double mean_deg = 0;        // over limbs and frames
+  double worst_limb_deg = 0;  // the largest of the limbs' means
+  double largest_deg = 0;     // the largest in any frame
+};
+
+// Angles between the world directions of the limbs in two clips; each clip's joints are named as
+// Bandai-Namco's (true) or CMU's.
+LimbAngles limb_angles(const Clip& a, bool a_bandai, const Clip& b, bool b_bandai) {
   const WorldPoses wa = forward_kinematics(a.skeleton, a.motion), wb = forward_kinematics(b.skeleton, b.motion);
-  double sum = 0, worst = 0;
-  int n = 0;
-  for (int t = 0; t < a.motion.num_frames; ++t)
-    for (const auto& l : kLimbs) {
-      const int oa = a_bandai ? 0 : 2, ob = b_bandai ? 0 : 2;
-      const int a0 = a.skeleton.find(l[oa]), a1 = a.skeleton.find(l[oa + 1]);
-      const int b0 = b.skeleton.find(l[ob]), b1 = b.skeleton.find(l[ob + 1]);
+  LimbAngles out;
+  for (const auto& l : kLimbs) {
+    const int oa = a_bandai ? 0 : 2, ob = b_bandai ? 0 : 2;
+    const int a0 = a.skeleton.find(l[oa]), a1 = a.skeleton.find(l[oa + 1]);
+    const int b0 = b.skeleton.find(l[ob]), b1 = b.skeleton.find(l[ob + 1]);
+    double sum = 0;
+    for (int t = 0; t < a.motion.num_frames; ++t) {
       const Vector3d da = (wa.position(t, a1) - wa.position(t, a0)).normalized();
       const Vector3d db = (wb.position(t, b1) - wb.position(t, b0)).normalized();
       const double angle = std::acos(std::clamp(da.dot(db), -1.0, 1.0)) * 180 / M_PI;
       sum += angle;
-      worst = std::max(worst, angle);
-      ++n;
+      out.largest_deg = std::max(out.largest_deg, angle);
     }
-  return {sum / n, worst};
+    out.mean_deg += sum / a.motion.num_frames / kLimbs.size();
+    out.worst_limb_deg = std::max(out.worst_limb_deg, sum / a.motion.num_frames);
+  }
+  return out;
+}
+
+// What issue 60 asks of held-out takes (mean within 8 degrees, no limb beyond 15), with margin.
+void expect_close_limbs(const LimbAngles& l) {
+  EXPECT_LT(l.mean_deg, 2.0);
+  EXPECT_LT(l.worst_limb_deg, 5.0);
+  EXPECT_LT(l.largest_deg, 25.0);
 }
 
 TEST(RigRealData, BandaiNamcoAndCmuRetargetEachOther) {
@@ -192,9 +207,7 @@ TEST(RigRealData, BandaiNamcoAndCmuRetargetEachOther) {
   const Clip on_cmu{c.skeleton, retarget(b.skeleton, b.motion, cmu_rig.rig, {}, &report)};
   EXPECT_FALSE(report.input_rest_reference);  // Bandai-Namco's rest lies along x
   EXPECT_GT(report.contacts, 4);
-  const auto [mean, worst] = limb_angles_deg(b, true, on_cmu, false);
-  EXPECT_LT(mean, 2.0);
-  EXPECT_LT(worst, 15.0);
+  expect_close_limbs(limb_angles(b, true, on_cmu, false));
   // The hips travel Bandai-Namco's path scaled by the leg-length ratio (cm -> CMU units).
   const WorldPoses wb = forward_kinematics(b.skeleton, b.motion), wc = forward_kinematics(c.skeleton, on_cmu.motion);
   const int hb = b.skeleton.find("Hips"), hc = c.skeleton.find("Hips"), last = b.motion.num_frames - 1;
@@ -204,16 +217,12 @@ TEST(RigRealData, BandaiNamcoAndCmuRetargetEachOther) {
 
   // And back: the round trip returns Bandai-Namco's limb directions.
   const Clip back{b.skeleton, retarget(c.skeleton, on_cmu.motion, bandai_rig.rig)};
-  const auto [back_mean, back_worst] = limb_angles_deg(b, true, back, true);
-  EXPECT_LT(back_mean, 2.0);
-  EXPECT_LT(back_worst, 15.0);
+  expect_close_limbs(limb_angles(b, true, back, true));
 
   // CMU onto Bandai-Namco's rig, aligned by the rig file's first frame.
   const Clip on_bandai{b.skeleton, retarget(c.skeleton, c.motion, bandai_rig.rig, {}, &report)};
   EXPECT_FALSE(report.rig_rest_reference);
-  const auto [cb_mean, cb_worst] = limb_angles_deg(c, false, on_bandai, true);
-  EXPECT_LT(cb_mean, 2.0);
-  EXPECT_LT(cb_worst, 15.0);
+  expect_close_limbs(limb_angles(c, false, on_bandai, true));
 }
 
 }  // namespace
