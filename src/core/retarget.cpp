@@ -1,5 +1,6 @@
 #include "core/retarget.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -292,6 +293,17 @@ std::vector<Quat> pose_frame(const Skeleton& rig, const Pairing& p, const Alignm
 
 // Frame t's translations: rest offsets (the reference's for the root), the hips moved to the
 // input's scaled position through the hips when the rig can translate them, else the root.
+// Moves frame t's hips by `delta` (world, rig units): through the hips' translation when the rig
+// can translate them (hips_parent_world: their parent's world rotation), else the root's.
+void move_path(const RetargetRig& rig, const Pairing& p, const Quat& hips_parent_world, const Vec3& delta, int t,
+               Motion* out) {
+  const bool hips_move = p.hips == 0 || rig.translatable.empty() || rig.translatable[p.hips];
+  if (hips_move && p.hips != 0)
+    out->translation(t, p.hips) += hips_parent_world.conjugate() * delta;
+  else
+    out->translation(t, 0) += delta;
+}
+
 void place_hips(const RetargetRig& rig, const Pairing& p, const Alignment& a, const std::vector<Quat>& world,
                 const Vec3& hips_target, int t, Motion* out) {
   const Skeleton& sk = rig.skeleton;
@@ -301,12 +313,37 @@ void place_hips(const RetargetRig& rig, const Pairing& p, const Alignment& a, co
   for (int j = p.hips; j >= 0; j = sk.parents[j]) path.push_back(j);
   Vec3 at = out->translation(t, 0);
   for (size_t i = path.size() - 1; i-- > 0;) at += world[sk.parents[path[i]]] * out->translation(t, path[i]);
-  const Vec3 delta = hips_target - at;
-  const bool hips_move = p.hips == 0 || rig.translatable.empty() || rig.translatable[p.hips];
-  if (hips_move && p.hips != 0)
-    out->translation(t, p.hips) += world[sk.parents[p.hips]].conjugate() * delta;
-  else
-    out->translation(t, 0) += delta;
+  move_path(rig, p, world[sk.parents[p.hips] < 0 ? 0 : sk.parents[p.hips]], hips_target - at, t, out);
+}
+
+// p5 over the frames of the lowest height of the given joints: where they stand.
+double floor_of(const WorldPoses& w, const std::vector<int>& joints, const Vec3& up) {
+  std::vector<double> lowest(static_cast<size_t>(w.num_frames));
+  for (int t = 0; t < w.num_frames; ++t) {
+    lowest[t] = w.position(t, joints[0]).dot(up);
+    for (int j : joints) lowest[t] = std::min(lowest[t], w.position(t, j).dot(up));
+  }
+  const size_t k = static_cast<size_t>(0.05 * (lowest.size() - 1) + 0.5);
+  std::nth_element(lowest.begin(), lowest.begin() + static_cast<long>(k), lowest.end());
+  return lowest[k];
+}
+
+// Moves the whole body so the rig's feet (ankles and toes) stand on the input's floor, scaled:
+// the lift (reference poses) gets it close, the contacts' IK may leave it off by a little.
+void level_floor(const WorldPoses& sw, const RetargetRig& rig, const Pairing& p, double scale, Motion* out) {
+  std::vector<int> rig_feet, source_feet;
+  for (int s = 0; s < 2; ++s)
+    for (int j : {p.foot[s], p.toe[s]})
+      if (j >= 0) {
+        rig_feet.push_back(j);
+        source_feet.push_back(p.source_of[j]);
+      }
+  const Vec3 up = Vec3::Unit(rig.skeleton.up_axis);
+  const WorldPoses rw = forward_kinematics(rig.skeleton, *out);
+  const double shift = scale * floor_of(sw, source_feet, up) - floor_of(rw, rig_feet, up);
+  const int parent = rig.skeleton.parents[p.hips];
+  for (int t = 0; t < out->num_frames; ++t)
+    move_path(rig, p, parent < 0 ? Quat::Identity() : rw.rotation(t, parent), shift * up, t, out);
 }
 
 // Per frame, the largest contact weight of one ankle and its target there.
@@ -339,11 +376,11 @@ Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle,
   return plant;
 }
 
-// Where the input's toe stays on the floor after its ankle has let go (the heel lifts), the rig's
-// toe stays where the ankle's contact left it, rising as the input's does, until it has lifted
-// off: the ankle moves by the toe's correction, the foot keeping its world orientation.
+// While the input's toe is down, the rig's toe stays where it came down (after the ankle's
+// contact has placed the foot), rising as the input's toe does, so the foot pivots about its toe
+// as the heel lifts: the ankle moves by the toe's correction, the foot keeping its orientation.
 void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p, int side,
-               const Alignment& a, const RetargetOptions& o, const std::vector<double>& ankle_weight, Motion* out) {
+               const Alignment& a, const RetargetOptions& o, Motion* out) {
   const Skeleton& sk = rig.skeleton;
   const int toe = p.toe[side], foot = p.foot[side];
   if (toe < 0 || sk.parents[toe] != foot) return;
@@ -353,14 +390,9 @@ void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& 
   const int n = out->num_frames, blend = contact_blend_frames(o.contacts, out->fps);
   const int source_toe = p.source_of[toe];
   for (const auto& [begin, end] : find_contacts(source, sw, source_toe, o.contacts, out->fps)) {
-    int t0 = begin;
-    while (t0 < end && ankle_weight[t0] >= 1) ++t0;
-    if (t0 == end) continue;
-    // Stays where it stood at t0, rising as the input's toe does, scaled.
-    const Vec3 pin = rw.position(t0, toe);
-    const double rise = pin.dot(up) - a.scale * sw.position(t0, source_toe).dot(up);
-    for (int t = t0; t < std::min(n, end + blend); ++t) {
-      if (ankle_weight[t] >= 1) continue;
+    const Vec3 pin = rw.position(begin, toe);
+    const double rise = pin.dot(up) - a.scale * sw.position(begin, source_toe).dot(up);
+    for (int t = begin; t < std::min(n, end + blend); ++t) {
       const double w = t < end ? 1.0 : contact_weight(t, begin, end, blend);
       const Vec3 target = pin + (a.scale * sw.position(t, source_toe).dot(up) + rise - pin.dot(up)) * up;
       reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + w * (target - rw.position(t, toe)), out, t);
@@ -374,7 +406,7 @@ void plant_feet(const Skeleton& source, const WorldPoses& sw, const RetargetRig&
                 const Alignment& a, const RetargetOptions& o, Motion* out, int* contacts) {
   const Skeleton& sk = rig.skeleton;
   const WorldPoses rw = forward_kinematics(sk, *out);
-  std::vector<double> weights[2];
+  bool planted[2] = {false, false};
   for (int s = 0; s < 2; ++s) {
     const LegChain leg{p.thigh[s], p.shin[s], p.foot[s]};
     if (sk.parents[leg.ankle] != leg.knee || sk.parents[leg.knee] != leg.hip) continue;
@@ -384,10 +416,10 @@ void plant_feet(const Skeleton& source, const WorldPoses& sw, const RetargetRig&
       const Vec3 free = rw.position(t, leg.ankle);
       reach_with_leg(sk, rw, t, leg, free + plant.weight[t] * (plant.target[t] - free), out, t);
     }
-    weights[s] = plant.weight;
+    planted[s] = true;
   }
   for (int s = 0; s < 2; ++s)
-    if (!weights[s].empty()) plant_toe(source, sw, rig, p, s, a, o, weights[s], out);
+    if (planted[s]) plant_toe(source, sw, rig, p, s, a, o, out);
 }
 
 void check_inputs(const Skeleton& source, const Motion& motion, const RetargetRig& rig) {
@@ -440,7 +472,10 @@ Motion retarget(const Skeleton& source_in, const Motion& motion, const RetargetR
     const Vec3 sockets = 0.5 * (sw.position(t, source_thigh[0]) + sw.position(t, source_thigh[1]));
     place_hips(rig, p, a, world, a.scale * sockets + lift - world[p.hips] * a.sockets_local, t, &out);
   }
-  if (options.plant_feet && motion.num_frames > 1) plant_feet(source, sw, rig, p, a, options, &out, &r->contacts);
+  if (options.plant_feet && motion.num_frames > 1) {
+    plant_feet(source, sw, rig, p, a, options, &out, &r->contacts);
+    level_floor(sw, rig, p, a.scale, &out);
+  }
   out.validate();
   return out;
 }

@@ -23,8 +23,10 @@
 //   contact the rig's ankle is pinned by two-bone IK (reach_with_leg), blended in and out:
 //   horizontally to one point (the mean of its own position over the contact), vertically to the
 //   input's ankle height, scaled and lifted, so the rig's feet stay planted where the input's are
-//   and on its floor. Where the input's toe stays down after its heel lifts, the rig's toe stays
-//   where the heel's contact left it, rising as the input's toe does, until it lifts off.
+//   and on its floor. While the input's toe is down (contacts found on it likewise), the rig's
+//   toe stays where it came down, rising as the input's does, so the foot pivots about its toe
+//   as the heel lifts. Last, the whole body moves up or down so the rig's feet (ankles, toes)
+//   stand where the input's do over the take (5th percentile of the lowest), scaled.
 //
 // Both skeletons must share the up axis (Skeleton::up_axis). Lengths stay in each skeleton's own
 // units: the scale between them comes from the leg lengths, so units cancel.
