@@ -346,6 +346,16 @@ void level_floor(const WorldPoses& sw, const RetargetRig& rig, const Pairing& p,
     move_path(rig, p, parent < 0 ? Quat::Identity() : rw.rotation(t, parent), shift * up, t, out);
 }
 
+// How still joint j of the input is at frame t, 0..1: (1 - horizontal speed / the contact speed)^2,
+// so pins sit where the input's foot rests, not where it slides in or out.
+double stillness(const Skeleton& source, const WorldPoses& sw, int j, int t, const RetargetOptions& o, double fps) {
+  const Vec3 up = Vec3::Unit(source.up_axis);
+  Vec3 step = sw.position(std::min(t + 1, sw.num_frames - 1), j) - sw.position(std::max(t - 1, 0), j);
+  step -= step.dot(up) * up;
+  const double speed_mps = step.norm() * source.meters_per_unit * fps / 2;
+  return std::pow(std::max(1e-3, 1 - speed_mps / o.contacts.contact_speed_mps), 2);
+}
+
 // Per frame, the largest contact weight of one ankle and its target there.
 struct Plant {
   std::vector<double> weight;
@@ -360,11 +370,18 @@ Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle,
   const int blend = contact_blend_frames(o.contacts, fps);
   for (const auto& [begin, end] : find_contacts(source, sw, source_ankle, o.contacts, fps)) {
     ++*contacts;
-    // One floor position per contact, horizontally: the mean of the rig's own ankle over it (its
-    // own stance, hip width and proportions, moved least); vertically the input's ankle, scaled.
+    // One floor position per contact, horizontally: the rig's own ankle (its own stance, hip width
+    // and proportions) averaged over the contact, weighted to where the input's ankle is stillest
+    // (a heel still sliding in at the start pulls the pin least); vertically the input's ankle,
+    // scaled.
     Vec3 pin = Vec3::Zero();
-    for (int t = begin; t < end; ++t) pin += rw.position(t, rig_ankle);
-    pin /= (end - begin);
+    double total = 0;
+    for (int t = begin; t < end; ++t) {
+      const double w = stillness(source, sw, source_ankle, t, o, fps);
+      pin += w * rw.position(t, rig_ankle);
+      total += w;
+    }
+    pin /= total;
     pin -= pin.dot(up) * up;
     for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
       const double w = contact_weight(t, begin, end, blend);
@@ -376,9 +393,10 @@ Plant plan_plant(const Skeleton& source, const WorldPoses& sw, int source_ankle,
   return plant;
 }
 
-// While the input's toe is down, the rig's toe stays where it came down (after the ankle's
-// contact has placed the foot), rising as the input's toe does, so the foot pivots about its toe
-// as the heel lifts: the ankle moves by the toe's correction, the foot keeping its orientation.
+// While the input's toe is down, the rig's toe stays where it rests (after the ankle's contact
+// has placed the foot), rising as the input's toe does, so the foot pivots about its toe as the
+// heel lifts: the ankle moves by the toe's correction, the foot keeping its orientation; blended
+// in and out like the ankle's contacts.
 void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& rig, const Pairing& p, int side,
                const Alignment& a, const RetargetOptions& o, Motion* out) {
   const Skeleton& sk = rig.skeleton;
@@ -389,15 +407,32 @@ void plant_toe(const Skeleton& source, const WorldPoses& sw, const RetargetRig& 
   const Vec3 up = Vec3::Unit(sk.up_axis);
   const int n = out->num_frames, blend = contact_blend_frames(o.contacts, out->fps);
   const int source_toe = p.source_of[toe];
+  std::vector<double> weight(static_cast<size_t>(n), 0.0);
+  std::vector<Vec3> target(static_cast<size_t>(n), Vec3::Zero());
   for (const auto& [begin, end] : find_contacts(source, sw, source_toe, o.contacts, out->fps)) {
-    const Vec3 pin = rw.position(begin, toe);
-    const double rise = pin.dot(up) - a.scale * sw.position(begin, source_toe).dot(up);
-    for (int t = begin; t < std::min(n, end + blend); ++t) {
-      const double w = t < end ? 1.0 : contact_weight(t, begin, end, blend);
-      const Vec3 target = pin + (a.scale * sw.position(t, source_toe).dot(up) + rise - pin.dot(up)) * up;
-      reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + w * (target - rw.position(t, toe)), out, t);
+    // Where the rig's toe rests over the contact (weighted to the input's stillest frames), and
+    // its height there above the input's toe, scaled.
+    Vec3 pin = Vec3::Zero();
+    double rise = 0, total = 0;
+    for (int t = begin; t < end; ++t) {
+      const double w = stillness(source, sw, source_toe, t, o, out->fps);
+      pin += w * rw.position(t, toe);
+      rise += w * (rw.position(t, toe).dot(up) - a.scale * sw.position(t, source_toe).dot(up));
+      total += w;
+    }
+    pin /= total;
+    pin -= pin.dot(up) * up;
+    rise /= total;
+    for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
+      const double w = contact_weight(t, begin, end, blend);
+      if (w <= weight[t]) continue;
+      weight[t] = w;
+      target[t] = pin + (a.scale * sw.position(t, source_toe).dot(up) + rise) * up;
     }
   }
+  for (int t = 0; t < n; ++t)
+    if (weight[t] > 0)
+      reach_with_leg(sk, rw, t, leg, rw.position(t, foot) + weight[t] * (target[t] - rw.position(t, toe)), out, t);
 }
 
 // Two-bone IK of each leg whose thigh, shin and foot are parent and child, onto the input's
