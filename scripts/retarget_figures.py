@@ -186,11 +186,17 @@ def measure(inp, out, in_scale, out_scale):
     }
 
 
+def units_of(path):
+    """Metres per file unit: CMU units for CMU-named skeletons, else centimetres (Bandai-Namco)."""
+    joints, _, _ = bvh.read(path)
+    return SCALES["cmu"] if any(j.name == "LeftUpLeg" for j in joints) else SCALES["cm"]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("inputs", nargs="+", help="input BVH files (Bandai-Namco, centimetres)")
+    ap.add_argument("inputs", nargs="+", help="input BVH files (Bandai-Namco in centimetres, or CMU)")
     ap.add_argument("--mosyn", default="build/mosyn")
-    ap.add_argument("--rig", action="append", required=True, help="a rig BVH (CMU units) or 'apose'")
+    ap.add_argument("--rig", action="append", required=True, help="a rig BVH (CMU or Bandai-Namco) or 'apose'")
     ap.add_argument("--out", required=True, help="folder for the retargeted files")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -205,7 +211,7 @@ def main():
         for inp in a.inputs:
             out = os.path.join(a.out, os.path.basename(inp)[:-4] + "_on_" + os.path.basename(rig))
             subprocess.run([a.mosyn, "retarget", inp, "--to", rig, "--out", out], check=True)
-            m = measure(inp, out, SCALES["cm"], rig_scale)
+            m = measure(inp, out, units_of(inp), units_of(rig) if rig_scale != SCALES["cm"] else rig_scale)
             skates = all(o <= 1.3 * i + 0.02 for o, i in zip(m["skate_toes_ankles_out"], m["skate_toes_ankles_in"]))
             ok = (m["limb_mean_deg"] <= 8 and m["worst_limb_mean_deg"][0] <= 15 and
                   abs(m["path_ratio_over_leg_ratio"] - 1) <= 0.1 and skates and abs(m["floor_diff_cm"]) <= 2)
