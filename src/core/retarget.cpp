@@ -482,36 +482,78 @@ void check_inputs(const Skeleton& source, const Motion& motion, const RetargetRi
 
 }  // namespace
 
+// Everything constant over the frames: the pairing and the alignment of the two skeletons.
+struct RetargetPlan {
+  Skeleton source;  // with meters_per_unit resolved (contacts are found in metres)
+  Pairing pairing;
+  Alignment alignment;
+};
+
+namespace {
+
+// `frames`: the input's frames whose standing one is its reference when its rest pose does not stand.
+RetargetPlan make_plan(const Skeleton& source_in, const Motion& frames, const RetargetRig& rig,
+                       const RetargetOptions& options, RetargetReport* r) {
+  check_inputs(source_in, frames, rig);
+  RetargetPlan plan;
+  plan.source = source_in;
+  plan.source.meters_per_unit = resolve_meters_per_unit(source_in);
+  plan.pairing = pair_joints(plan.source, rig.skeleton, options, r);
+  const Pairing& p = plan.pairing;
+  const Motion source_reference =
+      reference_pose(plan.source, {}, frames, landmarks(p, true), "input", &r->input_rest_reference);
+  const Motion rig_reference =
+      reference_pose(rig.skeleton, rig.rest_rotations, rig.frames, landmarks(p, false), "rig", &r->rig_rest_reference);
+  plan.alignment = align(plan.source, forward_kinematics(plan.source, source_reference), rig, rig_reference, p);
+  r->scale = plan.alignment.scale;
+  r->lift = plan.alignment.lift;
+  return plan;
+}
+
+// Frame t of `sw` (the input's FK) posed and placed on the rig into frame t of *out.
+void retarget_frame(const RetargetPlan& plan, const RetargetRig& rig, const WorldPoses& sw, int t, Motion* out) {
+  const Pairing& p = plan.pairing;
+  const Alignment& a = plan.alignment;
+  const std::vector<Quat> world = pose_frame(rig.skeleton, p, a, sw, t, out);
+  const Vec3 sockets = 0.5 * (sw.position(t, p.source_of[p.thigh[0]]) + sw.position(t, p.source_of[p.thigh[1]]));
+  const Vec3 lift = a.lift * Vec3::Unit(rig.skeleton.up_axis);
+  place_hips(rig, p, a, world, a.scale * sockets + lift - world[p.hips] * a.sockets_local, t, out);
+}
+
+}  // namespace
+
 Motion retarget(const Skeleton& source_in, const Motion& motion, const RetargetRig& rig, const RetargetOptions& options,
                 RetargetReport* report) {
-  check_inputs(source_in, motion, rig);
   RetargetReport local_report;
   RetargetReport* r = report ? report : &local_report;
   *r = RetargetReport{};
-  Skeleton source = source_in;  // contacts are found in metres
-  source.meters_per_unit = resolve_meters_per_unit(source_in);
-  const Pairing p = pair_joints(source, rig.skeleton, options, r);
-  const Motion source_reference = reference_pose(source, {}, motion, landmarks(p, true), "input", &r->input_rest_reference);
-  const Motion rig_reference =
-      reference_pose(rig.skeleton, rig.rest_rotations, rig.frames, landmarks(p, false), "rig", &r->rig_rest_reference);
-  const WorldPoses sw = forward_kinematics(source, motion);
-  const Alignment a = align(source, forward_kinematics(source, source_reference), rig, rig_reference, p);
-  r->scale = a.scale;
-  r->lift = a.lift;
-
+  const RetargetPlan plan = make_plan(source_in, motion, rig, options, r);
+  const WorldPoses sw = forward_kinematics(plan.source, motion);
   Motion out = Motion::rest(rig.skeleton, motion.num_frames, motion.fps);
-  const int source_thigh[2] = {p.source_of[p.thigh[0]], p.source_of[p.thigh[1]]};
-  const Vec3 lift = a.lift * Vec3::Unit(rig.skeleton.up_axis);
-  for (int t = 0; t < motion.num_frames; ++t) {
-    const std::vector<Quat> world = pose_frame(rig.skeleton, p, a, sw, t, &out);
-    const Vec3 sockets = 0.5 * (sw.position(t, source_thigh[0]) + sw.position(t, source_thigh[1]));
-    place_hips(rig, p, a, world, a.scale * sockets + lift - world[p.hips] * a.sockets_local, t, &out);
-  }
+  for (int t = 0; t < motion.num_frames; ++t) retarget_frame(plan, rig, sw, t, &out);
   if (options.plant_feet && motion.num_frames > 1) {
-    plant_feet(source, sw, rig, p, a, options, &out, &r->contacts);
-    level_floor(sw, rig, p, a.scale, &out);
+    plant_feet(plan.source, sw, rig, plan.pairing, plan.alignment, options, &out, &r->contacts);
+    level_floor(sw, rig, plan.pairing, plan.alignment.scale, &out);
   }
   out.validate();
+  return out;
+}
+
+StreamingRetarget::StreamingRetarget(const Skeleton& source, const Motion& reference, const RetargetRig& rig,
+                                     const RetargetOptions& options)
+    : rig_(rig) {
+  RetargetReport report;
+  plan_ = std::make_shared<const RetargetPlan>(make_plan(source, reference, rig, options, &report));
+  scale_ = report.scale;
+}
+
+Motion StreamingRetarget::apply(const Motion& frame) const {
+  if (frame.num_frames != 1 || frame.num_joints != plan_->source.num_joints())
+    throw Error("retarget: a streamed frame must be one frame of the input's " +
+                std::to_string(plan_->source.num_joints()) + " joints");
+  frame.validate();
+  Motion out = Motion::rest(rig_.skeleton, 1, frame.fps);
+  retarget_frame(*plan_, rig_, forward_kinematics(plan_->source, frame), 0, &out);
   return out;
 }
 

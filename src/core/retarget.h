@@ -33,6 +33,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -79,5 +80,29 @@ struct RetargetReport {
 // nor a standing frame, or the up axes differ.
 Motion retarget(const Skeleton& source, const Motion& motion, const RetargetRig& rig,
                 const RetargetOptions& options = {}, RetargetReport* report = nullptr);
+
+struct RetargetPlan;  // the pairing and alignment (retarget.cpp)
+
+// Frame-by-frame retargeting for motions made as they play (a generator behind the C ABI): each
+// frame's rotations and hips path exactly as retarget() computes them with plant_feet off (the
+// contacts need the whole take; a StreamingFootLock on the rig can pin feet causally).
+class StreamingRetarget {
+ public:
+  // `reference`: frames of the input (e.g. the first generated ones) among which a standing one
+  // aligns it when its rest pose does not stand; any frames of its skeleton otherwise. Throws as
+  // retarget() does.
+  StreamingRetarget(const Skeleton& source, const Motion& reference, const RetargetRig& rig,
+                    const RetargetOptions& options = {});
+  // One frame of the input ([1, J_input]) on the rig ([1, J_rig], rig units). Throws mosyn::Error
+  // for a frame that is not one frame of the input's joints, or not finite.
+  Motion apply(const Motion& frame) const;
+  const Skeleton& rig_skeleton() const { return rig_.skeleton; }
+  double scale() const { return scale_; }  // rig units per input unit
+
+ private:
+  RetargetRig rig_;
+  std::shared_ptr<const RetargetPlan> plan_;
+  double scale_ = 1;
+};
 
 }  // namespace mosyn

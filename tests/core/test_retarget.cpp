@@ -273,7 +273,35 @@ TEST(Retarget, RoundTripThroughMayaStyleRigKeepsBoneDirections) {
   EXPECT_LT(max_bone_angle(forward_kinematics(s, m), forward_kinematics(s, back), kBones.size() - 1), 1e-6);
   for (int t = 0; t < m.num_frames; ++t)
     for (int j = 0; j < s.num_joints(); ++j)
-      if (j != 15 && j != 16 && j != 19 && j != 20) EXPECT_LT(geodesic_angle(back.rotation(t, j), m.rotation(t, j)), 0.35);
+      if (j != 15 && j != 16 && j != 19 && j != 20) {
+        EXPECT_LT(geodesic_angle(back.rotation(t, j), m.rotation(t, j)), 0.35);
+      }
+}
+
+// Frame by frame (as a generator streams), the same frames as the whole take without planting,
+// with the input aligned by a standing frame given up front.
+TEST(Retarget, StreamingGivesTheTakesFrames) {
+  const RetargetRig maya = maya_style_rig();
+  const Skeleton mixamo = a_pose_mixamo();
+  const Motion m = retarget(make_synthetic_biped(), walk(make_synthetic_biped()), maya);  // input: rest along x
+  RetargetOptions options;
+  options.plant_feet = false;
+  const Motion whole = retarget(maya.skeleton, m, RetargetRig{mixamo, {}, {}, {}}, options);
+  const StreamingRetarget stream(maya.skeleton, m, RetargetRig{mixamo, {}, {}, {}}, options);
+  EXPECT_EQ(stream.rig_skeleton().joint_names, mixamo.joint_names);
+  for (int t = 0; t < m.num_frames; ++t) {
+    Motion frame = Motion::rest(maya.skeleton, 1, m.fps);
+    for (int j = 0; j < m.num_joints; ++j) {
+      frame.rotation(0, j) = m.rotation(t, j);
+      frame.translation(0, j) = m.translation(t, j);
+    }
+    const Motion out = stream.apply(frame);
+    for (int j = 0; j < mixamo.num_joints(); ++j) {
+      EXPECT_LT(geodesic_angle(out.rotation(0, j), whole.rotation(t, j)), 1e-9);
+      EXPECT_LT((out.translation(0, j) - whole.translation(t, j)).norm(), 1e-9);
+    }
+  }
+  EXPECT_THROW(stream.apply(m), Error);  // many frames at once
 }
 
 TEST(Retarget, UnmappableRigNamesTheJointsItCannotPlace) {
