@@ -4,29 +4,29 @@
 // How it works:
 // - Joints are paired by name (core/joint_names.h) or by an explicit map.
 // - Reference poses: each skeleton's rest pose when it stands (legs down, spine up), else the
-//   frame of its own motion that stands with both feet lowest (rigs with Maya-style joint orients,
-//   whose rest pose has every bone along x, as Bandai-Namco's). The rig's reference pose is bent, bone by bone, so that
-//   every paired bone points along the input's in the input's reference pose (turned to face the
-//   rig's way); that fixes, per paired joint, the constant rotation between the two skeletons'
-//   joint frames (T-pose, A-pose and joint orients all cancel in world space).
+//   frame of its own motion that stands with both feet lowest (rigs with Maya-style joint
+//   orients, whose rest pose has every bone along x, as Bandai-Namco's). The rig's reference pose
+//   is bent, bone by bone, so that every paired bone points along the input's in the input's
+//   reference pose (turned to face the rig's way); feet keep their world orientation (both stand
+//   flat). That fixes, per paired joint, the constant rotation between the two skeletons' joint
+//   frames (T-pose, A-pose and joint orients all cancel in world space).
 // - Each frame, a paired joint takes the input joint's world rotation through that constant
 //   rotation, then swings so its bone (to the next paired joint below it) points exactly where
-//   the input's does. Unpaired rig joints keep their reference (rest) local rotation.
-// - The hips (the midpoint of the hip sockets, so a hips joint higher above the legs changes
-//   nothing) travel the input's path scaled by the leg-length ratio (rig / input: hip to knee to
-//   ankle), floor included, raised by the difference of the ankles' heights above the toe joints
-//   (rig minus input, scaled; in the reference poses), so the rig's toes stand where the input's
-//   do, scaled.
-// - Feet and toes turn as the input's do from its reference pose (flat stays flat); they are not
-//   aimed along the input's foot, whose length and ankle height differ.
+//   the input's does. Feet are not aimed (rigs differ in foot length and ankle height): they turn
+//   as the input's do from its reference pose, flat stays flat. Unpaired rig joints keep their
+//   reference (rest) local rotation.
+// - The hip sockets' midpoint (so a hips joint higher above the legs changes nothing) travels the
+//   input's path scaled by the leg-length ratio (rig / input: hip to knee to ankle), raised by the
+//   difference of the ankles' heights above the toe joints (rig minus input, scaled; in the
+//   reference poses).
 // - Feet: contacts are found on the input's ankles (core/foot_lock.h find_contacts); during a
 //   contact the rig's ankle is pinned by two-bone IK (reach_with_leg), blended in and out:
-//   horizontally to one point (the mean of its own position over the contact), vertically to the
-//   input's ankle height, scaled and lifted, so the rig's feet stay planted where the input's are
-//   and on its floor. While the input's toe is down (contacts found on it likewise), the rig's
-//   toe stays where it came down, rising as the input's does, so the foot pivots about its toe
-//   as the heel lifts. Last, the whole body moves up or down so the rig's feet (ankles, toes)
-//   stand where the input's do over the take (5th percentile of the lowest), scaled.
+//   horizontally to one point (its own position over the contact, weighted to where the input's
+//   ankle is stillest), vertically to the input's ankle height, scaled and raised. While the
+//   input's toe is down (contacts found on it likewise), the rig's toe is pinned the same way,
+//   rising as the input's does, so the foot pivots about its toe as the heel lifts. Last, the
+//   whole body moves up or down so the rig's feet (ankles, toes) stand where the input's do over
+//   the take (5th percentile of the lowest), scaled.
 //
 // Both skeletons must share the up axis (Skeleton::up_axis). Lengths stay in each skeleton's own
 // units: the scale between them comes from the leg lengths, so units cancel.
