@@ -137,7 +137,8 @@ void apply_explicit(const Skeleton& source, const Skeleton& target, const std::m
     for (int& m : *match)
       if (m == s) m = -1;  // the source joint now drives only the named target joint
     (*match)[t] = s;
-    (*target_parts)[t] = classify_joint_name(source_name);
+    // The pair's part: the rig joint's name says it, else the input joint's.
+    if ((*target_parts)[t].part == BodyPart::kNone) (*target_parts)[t] = classify_joint_name(source_name);
   }
   if (!unknown.empty()) throw Error("joint map names joints that do not exist: " + unknown);
 }
@@ -162,17 +163,23 @@ void check_required(const Skeleton& source, const Skeleton& target, const std::v
     for (const JointPart& p : source_parts) in_source |= p.part == need.part && p.side == need.side;
     for (size_t j = 0; j < target_parts.size(); ++j)
       placed |= target_parts[j].part == need.part && target_parts[j].side == need.side && match[j] >= 0;
+    if (placed) continue;
     if (!in_source) missing_source += (missing_source.empty() ? "" : ", ") + describe(need);
-    if (!placed) missing_target += (missing_target.empty() ? "" : ", ") + describe(need);
+    missing_target += (missing_target.empty() ? "" : ", ") + describe(need);
   }
   if (missing_target.empty()) return;
+  const std::string how = " (name the pairs in --map FILE.json: {\"rig joint\": \"input joint\", ...})";
+  if (!missing_source.empty()) {
+    std::string unknown;
+    for (int j = 0; j < source.num_joints(); ++j)
+      if (source_parts[j].part == BodyPart::kNone) unknown += (unknown.empty() ? "" : ", ") + source.joint_names[j];
+    throw Error("cannot map the input onto the rig: no input joint is named as the " + missing_source +
+                "; input joints not recognised: " + (unknown.empty() ? std::string("none") : unknown) + how);
+  }
   for (int j = 0; j < target.num_joints(); ++j)
     if (match[j] < 0) unplaced += (unplaced.empty() ? "" : ", ") + target.joint_names[j];
-  std::string message = "cannot map the rig onto the input: no rig joint found for the " + missing_target;
-  if (!missing_source.empty()) message += "; the input has no joint named as the " + missing_source;
-  message += "; rig joints that could not be placed: " + (unplaced.empty() ? std::string("none") : unplaced) +
-             " (name the pairs in --map FILE.json: {\"rig joint\": \"input joint\", ...})";
-  throw Error(message);
+  throw Error("cannot map the rig onto the input: no rig joint found for the " + missing_target +
+              "; rig joints that could not be placed: " + (unplaced.empty() ? std::string("none") : unplaced) + how);
 }
 
 }  // namespace

@@ -52,8 +52,8 @@ std::string describe(const JointPart& part);
 // and neck chains by position along the chain; `explicit_map` (target joint name -> source joint
 // name) is applied first and wins over names. Throws mosyn::Error naming the joints when an
 // explicit name is not in its skeleton, or when the hips, a thigh, shin or foot, an upper arm or
-// forearm, or the spine of the target finds no source joint (listing the target's joints that
-// could not be placed, and the parts missing on either side).
+// forearm, or the spine of the target finds no source joint: the parts the source lacks and its
+// joints not recognised, else the parts the target lacks and its joints that could not be placed.
 std::vector<int> match_joints(const Skeleton& source, const Skeleton& target,
                               const std::map<std::string, std::string>& explicit_map = {});
 

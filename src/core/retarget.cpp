@@ -74,9 +74,9 @@ Pairing pair_joints(const Skeleton& source, const Skeleton& rig, const RetargetO
   Pairing p;
   p.source_of = match_joints(source, rig, options.joint_map);
   for (int j = 0; j < rig.num_joints(); ++j) {
+    // The pair's part: the rig joint's name says it, else the input joint's (as match_joints).
     JointPart part = classify_joint_name(rig.joint_names[j]);
-    if (p.source_of[j] >= 0 && (part.part == BodyPart::kNone || options.joint_map.count(rig.joint_names[j])))
-      part = classify_joint_name(source.joint_names[p.source_of[j]]);
+    if (p.source_of[j] >= 0 && part.part == BodyPart::kNone) part = classify_joint_name(source.joint_names[p.source_of[j]]);
     p.part.push_back(part);
     if (p.source_of[j] >= 0) report->pairs.emplace_back(rig.joint_names[j], source.joint_names[p.source_of[j]]);
   }

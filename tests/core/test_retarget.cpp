@@ -325,6 +325,16 @@ TEST(Retarget, UnmappableRigNamesTheJointsItCannotPlace) {
   const Motion m = walk(s, 10);
   const Motion out = retarget(s, m, RetargetRig{rig, {}, {}, {}}, options);
   EXPECT_LT(geodesic_angle(out.rotation(5, 13), m.rotation(5, 13)), 1e-6);
+  // An input with its own names, paired by the map with a rig named by convention.
+  Skeleton custom_source = s;
+  custom_source.joint_names[13] = "thingA";
+  custom_source.joint_names[14] = "thingB";
+  options.joint_map = {{"UpperLeg_L", "thingA"}, {"LowerLeg_L", "thingB"}};
+  const Motion custom = retarget(custom_source, m, RetargetRig{s, {}, {}, {}}, options);
+  EXPECT_LT(geodesic_angle(custom.rotation(5, 14), m.rotation(5, 14)), 1e-6);
+  // Neither side's name says what the joints are: an error naming them.
+  options.joint_map = {{"Bone13", "thingA"}, {"Bone14", "thingB"}};
+  EXPECT_THROW(retarget(custom_source, m, RetargetRig{rig, {}, {}, {}}, options), Error);
   options.joint_map = {{"Bone13", "NoSuchJoint"}};
   EXPECT_THROW(retarget(s, m, RetargetRig{rig, {}, {}, {}}, options), Error);
 }
