@@ -1,7 +1,8 @@
 /* A crowd through the C ABI (include/mosyn.h), in plain C: eight characters in two styles walk
  * and turn for three seconds, steered by stick; prints where each ends up and the per-frame cost, and checks the
  * library's contract on the way (unit quaternions, errors reported, exact replay of a character).
- * Usage: crowd [MODEL_DIR]   (default models/moglow-realtime). Exit code 0 when all is well. */
+ * Usage: crowd [MODEL_DIR [RIG]]   (default models/moglow-realtime). With RIG (a .bvh, .glb or .gltf
+ * skeleton) the crowd then walks on that rig (mosyn_crowd_set_rig). Exit code 0 when all is well. */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <math.h>
 #include <stdio.h>
@@ -41,6 +42,31 @@ static int walk(mosyn_crowd* crowd, int frames, float* last0, size_t count) {
     if (!check(mosyn_crowd_step_stick(crowd, sticks, CAPACITY * 3), "mosyn_crowd_step_stick")) return 0;
   }
   return check(mosyn_crowd_joint_rotations(crowd, 0, last0, count), "mosyn_crowd_joint_rotations");
+}
+
+/* The crowd played on another skeleton: the rig's joints, unit quaternions, a root that moves. */
+static int walk_on_rig(mosyn_crowd* crowd, const char* rig, int frames) {
+  float before[3], after[3];
+  if (!check(mosyn_crowd_set_rig(crowd, rig), "mosyn_crowd_set_rig") ||
+      !check(mosyn_crowd_root(crowd, 0, before, NULL, NULL), "mosyn_crowd_root"))
+    return 0;
+  const int joints = mosyn_crowd_joint_count(crowd);
+  const size_t count = 4 * (size_t)joints;
+  float* rotations = malloc(count * sizeof(float));
+  int ok = rotations && walk(crowd, frames, rotations, count) &&
+           check(mosyn_crowd_root(crowd, 0, after, NULL, NULL), "mosyn_crowd_root");
+  for (int j = 0; ok && j < joints; ++j) {
+    const float* q = rotations + 4 * j;
+    if (fabs(sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) > 1e-4) ok = 0;
+  }
+  const double m = mosyn_crowd_meters_per_unit(crowd);
+  const double moved = m * hypot(after[0] - before[0], after[2] - before[2]);
+  if (ok && moved > 0.5)
+    printf("on %s: %d joints (root %s), slot 0 walked %.2f m\n", rig, joints, mosyn_crowd_joint_name(crowd, 0), moved);
+  else
+    fprintf(stderr, "crowd: on the rig, slot 0 %s\n", ok ? "did not walk" : "has a bad pose");
+  free(rotations);
+  return ok && moved > 0.5 && check(mosyn_crowd_set_rig(crowd, NULL), "mosyn_crowd_set_rig(NULL)");
 }
 
 int main(int argc, char** argv) {
@@ -101,6 +127,7 @@ int main(int argc, char** argv) {
     }
   }
   if (ok) printf("%d characters, %d joints: %.2f ms per frame; replay exact\n", CAPACITY, joints, per_frame_ms);
+  if (ok && argc > 2) ok = walk_on_rig(crowd, argv[2], frames);
   free(rotations);
   free(first);
   mosyn_crowd_destroy(crowd);

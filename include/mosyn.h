@@ -115,6 +115,13 @@ MOSYN_API int32_t mosyn_crowd_joint_parent(const mosyn_crowd* crowd, int32_t joi
 MOSYN_API mosyn_status mosyn_crowd_joint_offset(const mosyn_crowd* crowd, int32_t joint, float* out_xyz);
 MOSYN_API double mosyn_crowd_fps(const mosyn_crowd* crowd);            /* frames per second of step */
 MOSYN_API double mosyn_crowd_meters_per_unit(const mosyn_crowd* crowd); /* skeleton unit in metres */
+/* Plays every slot on a rig instead of the model's skeleton, as `mosyn retarget` does (joints
+ * paired by name, rest poses aligned in world space, path scaled by leg length; feet are not
+ * planted): rig_path is a .bvh, .glb or .gltf file, NULL returns to the model's skeleton. The joint
+ * functions above then describe the rig, and mosyn_crowd_joint_rotations / mosyn_crowd_root give
+ * its pose in its units (the root joint carries the path). Needs an active slot: its current
+ * pose aligns the model's skeleton with the rig. */
+MOSYN_API mosyn_status mosyn_crowd_set_rig(mosyn_crowd* crowd, const char* rig_path);
 /* Index of a label name in the model's vocabulary; kind is "content" or "style". -1 when the model
  * has no such label (or takes no labels). */
 MOSYN_API int32_t mosyn_crowd_label(const mosyn_crowd* crowd, const char* kind, const char* name);

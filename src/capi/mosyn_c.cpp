@@ -12,14 +12,18 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/retarget.h"
+#include "io/rig.h"
 #include "nn/generator.h"
 #include "nn/run.h"
 
 struct mosyn_crowd {
   std::unique_ptr<mosyn::nn::Generator> generator;
   std::uint64_t seed = 0;
-  std::vector<mosyn::nn::JointTransforms> poses;  // per slot, cached after each step
+  std::vector<mosyn::nn::JointTransforms> poses;  // per slot, cached after each step (on the rig when set)
   std::vector<char> pose_valid;
+  std::unique_ptr<mosyn::io::RigFile> rig;                // mosyn_crowd_set_rig, else null
+  std::unique_ptr<mosyn::StreamingRetarget> retarget;     // the model's skeleton onto rig
 };
 
 namespace {
@@ -52,14 +56,42 @@ bool bad_slot(const mosyn_crowd* crowd, int32_t slot) {
   return !crowd || slot < 0 || slot >= crowd->generator->batch();
 }
 
+// The skeleton the caller sees: the rig when one is set, else the model's.
+const mosyn::Skeleton& skeleton_of(const mosyn_crowd* crowd) {
+  return crowd->rig ? crowd->rig->rig.skeleton : crowd->generator->run().dataset.skeleton;
+}
+
 bool bad_joint(const mosyn_crowd* crowd, int32_t joint) {
-  return !crowd || joint < 0 || joint >= crowd->generator->run().dataset.skeleton.num_joints();
+  return !crowd || joint < 0 || joint >= skeleton_of(crowd).num_joints();
+}
+
+// A generator pose as a one-frame motion of the model's skeleton.
+mosyn::Motion motion_of(const mosyn::Skeleton& skeleton, const mosyn::nn::JointTransforms& pose, double fps) {
+  mosyn::Motion m = mosyn::Motion::rest(skeleton, 1, fps);
+  for (int j = 0; j < skeleton.num_joints(); ++j) {
+    const float* q = &pose.rotations_wxyz[4 * static_cast<size_t>(j)];
+    m.rotation(0, j) = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+  }
+  m.translation(0, 0) = pose.root_translation;
+  return m;
+}
+
+// A generator pose played on the rig (mosyn_crowd_set_rig).
+mosyn::nn::JointTransforms on_rig(const mosyn_crowd* crowd, const mosyn::nn::JointTransforms& pose) {
+  const auto& run = crowd->generator->run();
+  const mosyn::Motion frame = crowd->retarget->apply(motion_of(run.dataset.skeleton, pose, run.dataset.fps));
+  mosyn::nn::JointTransforms out;
+  for (const Eigen::Quaterniond& q : frame.rotations)
+    for (double c : {q.w(), q.x(), q.y(), q.z()}) out.rotations_wxyz.push_back(static_cast<float>(c));
+  out.root_translation = frame.translation(0, 0);
+  return out;
 }
 
 const mosyn::nn::JointTransforms& pose_of(const mosyn_crowd* crowd, int32_t slot) {
   auto* c = const_cast<mosyn_crowd*>(crowd);
   if (!c->pose_valid[slot]) {
     c->poses[slot] = c->generator->joint_transforms(slot);
+    if (c->retarget) c->poses[slot] = on_rig(c, c->poses[slot]);
     c->pose_valid[slot] = 1;
   }
   return c->poses[slot];
@@ -115,21 +147,19 @@ void mosyn_crowd_destroy(mosyn_crowd* crowd) { delete crowd; }
 
 int32_t mosyn_crowd_capacity(const mosyn_crowd* crowd) { return crowd ? crowd->generator->batch() : -1; }
 
-int32_t mosyn_crowd_joint_count(const mosyn_crowd* crowd) {
-  return crowd ? crowd->generator->run().dataset.skeleton.num_joints() : -1;
-}
+int32_t mosyn_crowd_joint_count(const mosyn_crowd* crowd) { return crowd ? skeleton_of(crowd).num_joints() : -1; }
 
 const char* mosyn_crowd_joint_name(const mosyn_crowd* crowd, int32_t joint) {
-  return bad_joint(crowd, joint) ? nullptr : crowd->generator->run().dataset.skeleton.joint_names[joint].c_str();
+  return bad_joint(crowd, joint) ? nullptr : skeleton_of(crowd).joint_names[joint].c_str();
 }
 
 int32_t mosyn_crowd_joint_parent(const mosyn_crowd* crowd, int32_t joint) {
-  return bad_joint(crowd, joint) ? -1 : crowd->generator->run().dataset.skeleton.parents[joint];
+  return bad_joint(crowd, joint) ? -1 : skeleton_of(crowd).parents[joint];
 }
 
 mosyn_status mosyn_crowd_joint_offset(const mosyn_crowd* crowd, int32_t joint, float* out_xyz) {
   if (bad_joint(crowd, joint) || !out_xyz) return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_joint_offset: bad crowd, joint or pointer");
-  const auto& v = crowd->generator->run().dataset.skeleton.offsets[joint];
+  const auto& v = skeleton_of(crowd).offsets[joint];
   for (int i = 0; i < 3; ++i) out_xyz[i] = static_cast<float>(v[i]);
   return MOSYN_OK;
 }
@@ -137,7 +167,33 @@ mosyn_status mosyn_crowd_joint_offset(const mosyn_crowd* crowd, int32_t joint, f
 double mosyn_crowd_fps(const mosyn_crowd* crowd) { return crowd ? crowd->generator->run().dataset.fps : 0.0; }
 
 double mosyn_crowd_meters_per_unit(const mosyn_crowd* crowd) {
-  return crowd ? crowd->generator->run().dataset.skeleton.meters_per_unit : 0.0;
+  if (!crowd) return 0.0;
+  return crowd->rig ? crowd->rig->meters_per_unit : crowd->generator->run().dataset.skeleton.meters_per_unit;
+}
+
+mosyn_status mosyn_crowd_set_rig(mosyn_crowd* crowd, const char* rig_path) {
+  if (!crowd) return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_set_rig: crowd must not be NULL");
+  return guarded([&] {
+    std::fill(crowd->pose_valid.begin(), crowd->pose_valid.end(), 0);
+    crowd->retarget.reset();
+    crowd->rig.reset();
+    if (!rig_path) return MOSYN_OK;
+    int slot = 0;
+    while (slot < crowd->generator->batch() && !crowd->generator->active(slot)) ++slot;
+    if (slot == crowd->generator->batch())
+      return fail(MOSYN_INVALID_ARGUMENT,
+                  "mosyn_crowd_set_rig: add a character first: its pose aligns the model's skeleton with the rig");
+    auto rig = std::make_unique<mosyn::io::RigFile>(mosyn::io::read_rig(rig_path));
+    // Only the root's translation reaches the caller (mosyn_crowd_root): the path goes there.
+    rig->rig.translatable.assign(static_cast<size_t>(rig->rig.skeleton.num_joints()), false);
+    rig->rig.translatable[0] = true;
+    const auto& run = crowd->generator->run();
+    const mosyn::Motion reference =
+        motion_of(run.dataset.skeleton, crowd->generator->joint_transforms(slot), run.dataset.fps);
+    crowd->retarget = std::make_unique<mosyn::StreamingRetarget>(run.dataset.skeleton, reference, rig->rig);
+    crowd->rig = std::move(rig);
+    return MOSYN_OK;
+  });
 }
 
 int32_t mosyn_crowd_label(const mosyn_crowd* crowd, const char* kind, const char* name) {
@@ -207,7 +263,7 @@ mosyn_status mosyn_crowd_step_stick(mosyn_crowd* crowd, const float* sticks, siz
 mosyn_status mosyn_crowd_joint_rotations(const mosyn_crowd* crowd, int32_t slot, float* out_wxyz, size_t count) {
   if (bad_slot(crowd, slot) || !out_wxyz)
     return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_joint_rotations: bad crowd, slot or pointer");
-  const size_t want = 4 * static_cast<size_t>(crowd->generator->run().dataset.skeleton.num_joints());
+  const size_t want = 4 * static_cast<size_t>(skeleton_of(crowd).num_joints());
   if (count < want)
     return fail(MOSYN_INVALID_ARGUMENT, "mosyn_crowd_joint_rotations: out_wxyz must hold " + std::to_string(want) +
                                             " floats, got " + std::to_string(count));
@@ -224,9 +280,10 @@ mosyn_status mosyn_crowd_root(const mosyn_crowd* crowd, int32_t slot, float* out
   return guarded([&] {
     const auto& pose = pose_of(crowd, slot);
     const auto& root = crowd->generator->root(slot);
+    const double scale = crowd->retarget ? crowd->retarget->scale() : 1.0;  // model units -> rig units
     for (int i = 0; i < 3; ++i) {
       if (out_translation) out_translation[i] = static_cast<float>(pose.root_translation[i]);
-      if (out_floor) out_floor[i] = static_cast<float>(root.position[i]);
+      if (out_floor) out_floor[i] = static_cast<float>(scale * root.position[i]);
     }
     if (out_heading_rad) *out_heading_rad = static_cast<float>(root.heading_rad);
     return MOSYN_OK;

@@ -44,6 +44,7 @@ std::string format_duration(double seconds);
 using Action = std::function<void()>;
 void add_info_command(CLI::App& app, Action* action);
 void add_convert_command(CLI::App& app, Action* action);
+void add_retarget_command(CLI::App& app, Action* action);  // retarget (no LibTorch)
 void add_data_commands(CLI::App& app, Action* action);
 void add_model_commands(CLI::App& app, Action* action);  // train, sample
 void add_view_commands(CLI::App& app, Action* action);   // metrics, render, view (no LibTorch)

@@ -74,6 +74,7 @@ void add_common_setup_and_file_commands(CLI::App& app, Action* action) {
   app.set_version_flag("--version", std::string("mosyn 0.1.0"));
   add_info_command(app, action);
   add_convert_command(app, action);
+  add_retarget_command(app, action);
   add_data_commands(app, action);
   add_view_commands(app, action);
 }

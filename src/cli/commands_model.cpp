@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "cli/cli.h"
 #include "core/error.h"
@@ -21,6 +22,7 @@
 #include "io/gltf.h"
 #include "io/json_file.h"
 #include "io/npy.h"
+#include "io/rig.h"
 #include "nn/checkpoint.h"
 #include "nn/model.h"
 #include "nn/run.h"
@@ -174,6 +176,7 @@ struct SampleArgs {
   bool foot_lock = false;
   bool realtime = false;
   std::string format = "bvh";  // comma-separated: bvh, glb, gltf
+  std::string skeleton;        // --skeleton: a rig (BVH or glTF) to write the motions on
 };
 
 nn::SampleJobOptions job_options(const SampleArgs& a) {
@@ -223,18 +226,41 @@ SampleFormats parse_sample_formats(const std::string& text) {
   return f;
 }
 
-void write_sample_gltf(const std::string& path, const std::vector<nn::SampledClip>& sampled, const std::string& prefix) {
+void write_sample_gltf(const std::string& path, const std::vector<Clip>& clips, const std::string& prefix,
+                       double meters_per_unit) {
   std::vector<io::GltfMotion> motions;
-  for (size_t i = 0; i < sampled.size(); ++i) {
+  for (size_t i = 0; i < clips.size(); ++i) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03zu", prefix.c_str(), i);
-    motions.push_back({name, sampled[i].clip.motion});
+    motions.push_back({name, clips[i].motion});
   }
-  io::write_gltf(path, sampled.front().clip.skeleton, motions);
+  io::GltfOptions options;
+  options.meters_per_unit = meters_per_unit;
+  io::write_gltf(path, clips.front().skeleton, motions, options);
+}
+
+// The motions to write: the model's own, or with --skeleton each retargeted onto the rig
+// (core/retarget.h, as `mosyn retarget` does); *scale gets the rig's units per model unit.
+std::vector<Clip> output_clips(const std::vector<nn::SampledClip>& sampled, const io::RigFile* rig, double* scale) {
+  std::vector<Clip> out;
+  for (const nn::SampledClip& s : sampled) {
+    if (rig == nullptr) {
+      out.push_back(s.clip);
+      continue;
+    }
+    RetargetReport report;
+    Clip on_rig{rig->rig.skeleton, retarget(s.clip.skeleton, s.clip.motion, rig->rig, {}, &report)};
+    on_rig.skeleton.meters_per_unit = rig->meters_per_unit;
+    *scale = report.scale;
+    out.push_back(std::move(on_rig));
+  }
+  return out;
 }
 
 void run_sample(const SampleArgs& a) {
   const SampleFormats formats = parse_sample_formats(a.format);  // usage errors before the model loads
+  std::optional<io::RigFile> rig;
+  if (!a.skeleton.empty()) rig = io::read_rig(a.skeleton);  // input errors before the model loads, too
   const nn::SampleJobOptions options = job_options(a);
   nn::LoadOptions load;
   load.checkpoint = a.checkpoint;
@@ -242,6 +268,8 @@ void run_sample(const SampleArgs& a) {
   const nn::LoadedRun run = nn::load_run(a.run_dir, load);
   const nn::SamplePlan plan = nn::plan_sample(run, options);
   const std::vector<nn::SampledClip> sampled = nn::run_sample(run, plan, options);
+  double rig_scale = 1;
+  const std::vector<Clip> clips = output_clips(sampled, rig ? &*rig : nullptr, &rig_scale);
   const double fps = run.dataset.fps;
   const int total_frames = sampled.front().clip.motion.num_frames;
   std::filesystem::create_directories(a.out_dir);
@@ -251,9 +279,9 @@ void run_sample(const SampleArgs& a) {
     char name[64];
     std::snprintf(name, sizeof name, "%s_%03d", a.prefix.c_str(), i);
     const std::string base = (std::filesystem::path(a.out_dir) / name).string();
-    const Clip& clip = sampled[i].clip;
+    const Clip& clip = clips[i];
     const FootLockReport& lock = sampled[i].foot_lock;
-    if (formats.bvh) io::write_bvh(base + ".bvh", io::from_clip(clip));
+    if (formats.bvh) io::write_bvh(base + ".bvh", io::from_clip(clip, rig && rig->bvh ? &*rig->bvh : nullptr));
     if (a.positions) {
       io::write_positions_npy(base + ".npy", total_frames, clip.skeleton.num_joints(),
                               forward_kinematics(clip.skeleton, clip.motion).positions, clip.skeleton.meters_per_unit);
@@ -278,9 +306,12 @@ void run_sample(const SampleArgs& a) {
                                                         : nlohmann::json(nullptr)},
                               {"positions_npy", a.positions ? name + std::string(".npy") : ""}};
     if (!gltf_name.empty()) sidecar["gltf"] = {{"file", gltf_name}, {"animation", i}};
+    if (rig) sidecar["skeleton"] = {{"file", a.skeleton}, {"scale", rig_scale}};
     io::write_json(base + ".json", sidecar);
   });
-  if (!gltf_name.empty()) write_sample_gltf((std::filesystem::path(a.out_dir) / gltf_name).string(), sampled, a.prefix);
+  if (!gltf_name.empty())
+    write_sample_gltf((std::filesystem::path(a.out_dir) / gltf_name).string(), clips, a.prefix,
+                      rig ? rig->meters_per_unit : 0.0);
   for (const nn::SampleStageTiming& stage : run.model->last_sample_timings())
     if (stage.steps > 0 && stage.rows > 0)
       std::fprintf(stderr, "%s: %.1f ms per predicted frame (%ld samples together), %.2f ms per sample-frame, %.2f s in all\n",
@@ -413,6 +444,9 @@ void add_sample_command(CLI::App& app, Action* action) {
                      "comma-separated: bvh (PREFIX_000.bvh ...), glb or gltf (one PREFIX.glb with every motion as an "
                      "animation of a skinned body, metres, Y up)")
       ->capture_default_str();
+  sample->add_option("--skeleton", s->skeleton,
+                     "write the motions on this rig (.bvh or .glb/.gltf) instead of the model's skeleton, as "
+                     "`mosyn retarget` does: its joints, offsets and channels; path scaled by leg length, feet planted");
   sample->add_flag("--foot-lock", s->foot_lock,
                    "post-process: pin each foot contact to one floor position by two-bone IK (off: the model's raw "
                    "motion)");

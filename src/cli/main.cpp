@@ -45,6 +45,7 @@ Look at motion:
   mosyn metrics walks/*.bvh --reference takes/*.bvh   # footsteps, foot skating, bone lengths
 Convert:
   mosyn convert take.bvh take.glb                # glTF for Blender and game engines (also .npy, .csv, .bvh)
+  mosyn retarget take.bvh --to character.glb --out take-on-character.glb   # onto your own skeleton (BVH or glTF)
 Train your own (docs/training.md):
   mosyn data prepare mocap/ --out data/loco --form positions --contents walk,run --fps 20 --mirror \
       --root-smoothing 0.7 --stats-from models/moglow-lookahead   # its features, to continue its weights

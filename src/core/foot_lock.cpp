@@ -49,33 +49,19 @@ struct AnkleTargets {
 
 AnkleTargets pin_contacts(const Skeleton& skeleton, const WorldPoses& world, int ankle, const FootLockOptions& o,
                           double fps, FootLockReport* report) {
-  const int n = world.num_frames, up = skeleton.up_axis;
-  const double mpu = skeleton.meters_per_unit > 0 ? skeleton.meters_per_unit : 1.0;
-  std::vector<double> heights(static_cast<size_t>(n));
-  for (int t = 0; t < n; ++t) heights[t] = world.position(t, ankle)[up];
-  const double floor = percentile(heights, 5.0);
-  std::vector<bool> contact(static_cast<size_t>(n), false);
-  for (int t = 0; t < n; ++t) {
-    const int a = std::max(t - 1, 0), b = std::min(t + 1, n - 1);
-    Eigen::Vector3d d = world.position(b, ankle) - world.position(a, ankle);
-    d[up] = 0;
-    const double speed = b > a ? d.norm() * mpu * fps / (b - a) : 0.0;
-    contact[t] = (heights[t] - floor) * mpu < o.contact_height_m && speed < o.contact_speed_mps;
-  }
+  const int n = world.num_frames;
   AnkleTargets out;
   out.target.assign(static_cast<size_t>(n), Eigen::Vector3d::Zero());
   out.weight.assign(static_cast<size_t>(n), 0.0);
-  const int blend = std::max(0, static_cast<int>(std::lround(o.blend_s * fps)));
-  const int min_len = std::max(1, static_cast<int>(std::lround(o.min_contact_s * fps)));
-  for (const auto& [begin, end] : runs_of(contact, min_len)) {
+  const int blend = contact_blend_frames(o, fps);
+  for (const auto& [begin, end] : find_contacts(skeleton, world, ankle, o, fps)) {
     // One floor position per contact: the mean, which moves the ankle least overall.
     Eigen::Vector3d pin = Eigen::Vector3d::Zero();
     for (int t = begin; t < end; ++t) pin += world.position(t, ankle);
     pin /= (end - begin);
     ++report->contacts;
     for (int t = std::max(0, begin - blend); t < std::min(n, end + blend); ++t) {
-      const int outside = t < begin ? begin - t : (t >= end ? t - end + 1 : 0);
-      const double w = outside == 0 ? 1.0 : 0.5 * (1.0 + std::cos(M_PI * outside / (blend + 1)));
+      const double w = contact_weight(t, begin, end, blend);
       if (w <= out.weight[t]) continue;
       out.weight[t] = w;
       out.target[t] = pin;
@@ -96,6 +82,36 @@ Eigen::Quaterniond rotation_between(const Eigen::Vector3d& a, const Eigen::Vecto
 }
 
 }  // namespace
+
+std::vector<std::pair<int, int>> find_contacts(const Skeleton& skeleton, const WorldPoses& world, int ankle,
+                                               const FootLockOptions& o, double fps) {
+  check_options(o);
+  const int n = world.num_frames, up = skeleton.up_axis;
+  const double mpu = skeleton.meters_per_unit > 0 ? skeleton.meters_per_unit : 1.0;
+  std::vector<double> heights(static_cast<size_t>(n));
+  for (int t = 0; t < n; ++t) heights[t] = world.position(t, ankle)[up];
+  const double floor = percentile(heights, 5.0);
+  std::vector<bool> contact(static_cast<size_t>(n), false);
+  for (int t = 0; t < n; ++t) {
+    const int a = std::max(t - 1, 0), b = std::min(t + 1, n - 1);
+    Eigen::Vector3d d = world.position(b, ankle) - world.position(a, ankle);
+    d[up] = 0;
+    const double speed = b > a ? d.norm() * mpu * fps / (b - a) : 0.0;
+    contact[t] = (heights[t] - floor) * mpu < o.contact_height_m && speed < o.contact_speed_mps;
+  }
+  return runs_of(contact, std::max(1, static_cast<int>(std::lround(o.min_contact_s * fps))));
+}
+
+int contact_blend_frames(const FootLockOptions& o, double fps) {
+  return std::max(0, static_cast<int>(std::lround(o.blend_s * fps)));
+}
+
+double contact_weight(int t, int begin, int end, int blend_frames) {
+  const int outside = t < begin ? begin - t : (t >= end ? t - end + 1 : 0);
+  if (outside == 0) return 1.0;
+  if (outside > blend_frames) return 0.0;
+  return 0.5 * (1.0 + std::cos(M_PI * outside / (blend_frames + 1)));
+}
 
 void reach_with_leg(const Skeleton& skeleton, const WorldPoses& world, int t, const LegChain& leg,
                     const Eigen::Vector3d& target, Motion* motion, int motion_frame) {

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <deque>
+#include <utility>
 #include <vector>
 
 #include "core/kinematics.h"
@@ -30,6 +31,20 @@ struct LegChain {
 
 // Every leg of the skeleton (usually two). Empty when none is found.
 std::vector<LegChain> find_legs(const Skeleton& skeleton);
+
+// Contact intervals [begin, end) of one ankle (joint index) in `world` (FK of a motion at fps):
+// runs of at least min_contact_s in which the ankle is within contact_height_m of its floor (its
+// 5th-percentile height) and slower than contact_speed_mps horizontally. Units from
+// skeleton.meters_per_unit, up from skeleton.up_axis. Throws mosyn::Error for invalid options.
+std::vector<std::pair<int, int>> find_contacts(const Skeleton& skeleton, const WorldPoses& world, int ankle,
+                                               const FootLockOptions& options, double fps);
+
+// blend_s in frames at fps (rounded, >= 0).
+int contact_blend_frames(const FootLockOptions& options, double fps);
+
+// Weight of a contact [begin, end) at frame t: 1 inside, a raised-cosine ramp over blend_frames
+// frames on either side, 0 beyond.
+double contact_weight(int t, int begin, int end, int blend_frames);
 
 // Two-bone IK in world space: the knee position that puts the ankle at target with upper and
 // lower bone lengths kept, bending in the plane of the hip, the target and the current knee

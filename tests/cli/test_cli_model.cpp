@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_test_util.h"
+#include "core/synthetic.h"
 #include "data/prepare.h"
 #include "io/atomic_file.h"
 #include "io/bvh.h"
@@ -104,6 +105,30 @@ TEST_F(CliModelTest, SampleFormatGlbWritesEveryMotionAsAnAnimationOfOneFile) {
   EXPECT_FALSE(std::filesystem::exists(out + "/walk_000.bvh"));  // only the formats asked for
   EXPECT_EQ(io::read_json(out + "/walk_001.json")["gltf"]["animation"], 1);
   EXPECT_EQ(run_mosyn("sample " + *root_ + "/run --out " + out + " --format fbx").exit_code, 2);
+}
+
+// --skeleton: the samples written on a rig (here the biped renamed Mixamo-style, 1.2 times as big),
+// in its hierarchy and channel layout, BVH and glTF, as `mosyn retarget` writes them.
+TEST_F(CliModelTest, SampleSkeletonWritesOnTheRig) {
+  const std::string out = *root_ + "/on_rig", rig_path = *root_ + "/rig.bvh";
+  Skeleton rig = make_synthetic_biped();
+  for (auto& name : rig.joint_names) name = "mixamorig:" + name;
+  for (auto& o : rig.offsets) o *= 1.2;
+  io::write_bvh(rig_path, io::from_clip(Clip{rig, Motion::rest(rig, 1, 30.0)}));
+  const auto r = run_mosyn("sample " + *root_ + "/run --out " + out + " --n 2 --seed 7 --seconds 3 --path '0,0 0,3'" +
+                           " --format bvh,glb --skeleton " + rig_path + " --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const io::BvhFile bvh = io::read_bvh(out + "/sample_001.bvh");
+  EXPECT_EQ(bvh.skeleton.joint_names, rig.joint_names);
+  EXPECT_EQ(bvh.channels, io::read_bvh(rig_path).channels);
+  EXPECT_GT(bvh.num_frames, 30);
+  EXPECT_EQ(io::read_file(out + "/sample.glb").substr(0, 4), "glTF");
+  const nlohmann::json sidecar = io::read_json(out + "/sample_001.json");
+  EXPECT_EQ(sidecar["skeleton"]["file"], rig_path);
+  EXPECT_GT(sidecar["skeleton"]["scale"].get<double>(), 0.0);
+  const auto bad = run_mosyn("sample " + *root_ + "/run --out " + out + " --skeleton " + *root_ + "/nothing.bvh");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("nothing.bvh"));
 }
 
 TEST_F(CliModelTest, SameSeedSameFilesDifferentSeedDifferentFiles) {
