@@ -291,6 +291,39 @@ torch::Tensor HvrnnImpl::classifier_term(const torch::Tensor& pred, const torch:
   return term + ce(out.content_logits, batch.content) + ce(out.style_logits, batch.style);
 }
 
+void HvrnnImpl::prior_draw_terms(const Unroll& u, const torch::Tensor& frames, const torch::Tensor& previous,
+                                  const torch::Tensor& mask, const torch::Tensor& word_mask, const Batch& batch,
+                                  torch::Tensor* total, LossTerms* terms) {
+  const int64_t b = frames.size(0), l = options_.word_length, n = frames.size(1) / l;
+  const bool boundary = options_.boundary_weight > 0 && n > 1;
+  const bool drawn = draw_.on() && is_training();
+  if (options_.boundary_weight > 0) terms->terms["boundary"] = torch::zeros({}, total->options());
+  if (!boundary && !drawn) return;
+  torch::Tensor teacher_drawn;  // each drawn word after the real frame before it
+  if (boundary || !options_.draw_chained) teacher_drawn = decode_words(u.prior, previous);
+  if (boundary) {
+    // The first frame of words 1..n-1 decoded from a prior draw, against the real first frame.
+    auto first = [&](const torch::Tensor& x) {
+      return x.reshape({b, n, l, frame_dim()}).select(2, 0).narrow(1, 1, n - 1);
+    };
+    auto r_first = reconstruction(first(teacher_drawn), first(frames));
+    auto first_mask = word_mask.narrow(1, 1, n - 1);
+    auto boundary_error = (r_first.recon * first_mask).sum() / first_mask.sum().clamp_min(1.0);
+    *total = *total + options_.boundary_weight * boundary_error;
+    terms->terms["boundary"] = boundary_error.detach();
+  }
+  if (!drawn) return;
+  torch::Tensor drawn_frames = teacher_drawn;
+  if (options_.draw_chained) {  // as generation: each word after the drawn one before it
+    auto chained = torch::zeros({b, frame_dim() + 1}, frames.options());
+    drawn_frames = decode_generated(u.prior, &chained);
+  }
+  const int64_t d = context_.pose_dim, c = context_.control_dim;
+  draw_.add({drawn_frames.narrow(-1, 0, d), drawn_frames.narrow(-1, d, c), frames.narrow(-1, 0, d),
+             frames.narrow(-1, d, c), mask, batch.content, batch.style},
+            true, total, terms);
+}
+
 LossTerms HvrnnImpl::loss(const Batch& batch) {
   const auto& pose = batch.pose;
   if (pose.dim() != 3 || pose.size(2) != context_.pose_dim || pose.size(1) < 1)
@@ -328,20 +361,8 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
   // Free bits: below the budget the clamp passes no gradient to the posterior or prior.
   auto kl_loss = options_.kl_free_nats > 0 ? torch::clamp_min(kl, options_.kl_free_nats) : kl;
   auto total = recon + w_kl * kl_loss + options_.validity_weight * validity;
-  torch::Tensor boundary_error = torch::zeros({}, total.options());
-  torch::Tensor prior_frames;  // every word decoded from a prior draw at its teacher-forced state
-  if (drawn) prior_frames = decode_words(u.prior, previous);
-  if (boundary) {
-    // The first frame of words 1..n-1 decoded from a prior draw, against the real first frame.
-    auto first = [&](const torch::Tensor& x) {
-      return x.reshape({b, n, l, frame_dim()}).select(2, 0).narrow(1, 1, n - 1);
-    };
-    if (!prior_frames.defined()) prior_frames = decode_words(u.prior, previous);
-    auto r_first = reconstruction(first(prior_frames), first(frames));
-    auto first_mask = word_mask.narrow(1, 1, n - 1);
-    boundary_error = (r_first.recon * first_mask).sum() / first_mask.sum().clamp_min(1.0);
-    total = total + options_.boundary_weight * boundary_error;
-  }
+  LossTerms terms;
+  prior_draw_terms(u, frames, previous, mask, word_mask, batch, &total, &terms);
   torch::Tensor velocity;
   if (options_.velocity_weight > 0) {
     velocity = hvrnn::velocity_error(pred, frames, mask);
@@ -361,22 +382,16 @@ LossTerms HvrnnImpl::loss(const Batch& batch) {
     cl = classifier_term(held(pred), held(frames), batch);
     total = total + w_cl * cl;
   }
-  LossTerms terms;
   // The reconstruction's feet move with the root steps it reconstructs (the model makes its root).
   const int64_t d = context_.pose_dim, c = context_.control_dim;
   foot_.add({pred.narrow(-1, 0, d), pred.narrow(-1, d, c), frames.narrow(-1, 0, d), frames.narrow(-1, d, c), mask,
              batch.content, batch.style},
             is_training(), &total, &terms);
-  if (drawn)
-    draw_.add({prior_frames.narrow(-1, 0, d), prior_frames.narrow(-1, d, c), frames.narrow(-1, 0, d),
-               frames.narrow(-1, d, c), mask, batch.content, batch.style},
-              true, &total, &terms);
   terms.terms["loss"] = total;
   terms.terms["recon"] = recon.detach();
   terms.terms["kl"] = kl.detach();
   terms.terms["validity"] = validity.detach();
   terms.terms["velocity"] = velocity.detach();
-  if (options_.boundary_weight > 0) terms.terms["boundary"] = boundary_error.detach();
   terms.terms["classifier"] = cl.detach();
   terms.terms["geodesic"] = ((r.geodesic * mask).sum() / valid).detach();
   terms.terms["kl_weight"] = torch::full({}, w_kl);

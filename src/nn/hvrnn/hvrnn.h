@@ -99,6 +99,11 @@ struct HvrnnOptions {
   // and root speed. The foot terms on the reconstruction alone left drawn walks skating 3.8x real
   // ones (docs/experiments.md): they reach the decoder, not the prior samples come from.
   DrawObjectiveOptions draw;
+  // The drawn words of the draw terms decoded one after another, each seeing the last frame of the
+  // drawn word before it, as generation decodes them (decode_generated), instead of the real frame
+  // before it: the terms then see the jumps where generated words meet (a planted heel moved 2-3 cm
+  // every third frame in drawn walks, splitting each stance in two). Needs decoder_previous_frame.
+  bool draw_chained = false;
 
   static HvrnnOptions from_json(const nlohmann::json& config);
   nlohmann::json to_json() const;
@@ -188,6 +193,13 @@ class HvrnnImpl : public MotionModel {
   };
   Unroll unroll(const torch::Tensor& words, const torch::Tensor& drop, int64_t n, const torch::Tensor& h0,
                 const torch::Tensor& a, double temperature, at::Generator* gen, bool with_prior = false);
+  // The terms on words decoded from prior draws at the teacher-forced states (u.prior): the
+  // boundary term (boundary_weight) and the shared draw terms (draw, draw_chained), added to
+  // *total; logs "boundary" and the draw terms in *terms. frames [B, N l, F] the padded window,
+  // previous its teacher_previous, mask [B, N l] and word_mask [B, N] its valid frames and words.
+  void prior_draw_terms(const Unroll& u, const torch::Tensor& frames, const torch::Tensor& previous,
+                        const torch::Tensor& mask, const torch::Tensor& word_mask, const Batch& batch,
+                        torch::Tensor* total, LossTerms* terms);
 
   // One motion-cell step on the state hs (updated): word [B, W] observed (Alg. 1; *kl receives
   // KL(q || p) [B] when kl is given) or undefined (Alg. 2, the prior). drop [B] bool (optional):

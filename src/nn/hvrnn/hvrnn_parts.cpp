@@ -63,6 +63,12 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
           .field("spread_floor", &O::spread_floor, "added to every softplus spread", at_least(0.0))
           .include(&O::foot, foot_objective_fields())
           .include(&O::draw, draw_objective_fields())
+          .field("draw_chained", &O::draw_chained,
+                 "training: the draw terms' words decoded one after another, as generation does")
+          .written_if([](const O& o) { return o.draw_chained; })
+          .rule([](const O& o) -> std::string {
+            return o.draw_chained && !o.decoder_previous_frame ? "draw_chained needs decoder_previous_frame" : "";
+          })
           .rule([](const O& o) {
             return o.decoder_previous_frame && !o.word_coder ? "decoder_previous_frame needs the word coder" : "";
           })

@@ -514,3 +514,51 @@ TEST(Hvrnn, FootObjectivesOnTheReconstruction) {
   // Without the skeleton the terms cannot find the feet, and say so.
   EXPECT_THROW(HvrnnImpl(HvrnnOptions::from_json(on), labelled_small_context()), Error);
 }
+
+// The shared terms on free draws: every word also decoded from a prior draw; added in training
+// only, their gradient reaching the prior; chained, the drawn words are those generation decodes
+// one after another (each after the drawn word before it), so the terms differ from the
+// teacher-forced draws' and the option needs the previous-frame decoder.
+TEST(Hvrnn, DrawTermsOnPriorWords) {
+  const Skeleton s = make_synthetic_biped();
+  const ModelContext ctx = nn::testing::form_context(s, data::PoseForm::kRotations);
+  const Batch batch = nn::testing::walk_batch(s, ctx, 24);
+  auto loss_of = [&](const nlohmann::json& cfg, bool training, HvrnnImpl** keep = nullptr) {
+    torch::manual_seed(3);
+    auto* m = new HvrnnImpl(HvrnnOptions::from_json(cfg), ctx);
+    m->train(training);
+    torch::manual_seed(4);
+    LossTerms t = m->loss(batch);
+    if (keep) *keep = m; else delete m;
+    return t;
+  };
+  const nlohmann::json draw = {{"draw_speed_distribution_weight", 1.0}, {"draw_toe_slide_weight", 2.0},
+                               {"draw_speed_weight", 0.5}, {"decoder_previous_frame", true},
+                               {"boundary_weight", 1.0}};  // both runs draw the prior words alike
+  auto with = [&](nlohmann::json extra) {
+    auto cfg = tiny(draw);
+    for (auto& [k, v] : extra.items()) cfg[k] = v;
+    return cfg;
+  };
+  const LossTerms off = loss_of(tiny({{"decoder_previous_frame", true}, {"boundary_weight", 1.0}}), true);
+  HvrnnImpl* model = nullptr;
+  const LossTerms on = loss_of(with({}), true, &model);
+  ASSERT_EQ(off.terms.count("draw_speed"), 0u);
+  const double dist = on.terms.at("draw_speed_distribution_mps").item<double>();
+  const double toe = on.terms.at("draw_toe_slide_mps").item<double>();
+  const double speed = on.terms.at("draw_speed").item<double>();
+  EXPECT_GT(dist, 0.0);  // an untrained prior's words do not walk as the data does
+  EXPECT_NEAR(on.loss().item<double>(), off.loss().item<double>() + dist + 2.0 * toe + 0.5 * speed, 1e-4);
+  model->zero_grad();
+  on.loss().backward();
+  const auto& prior = model->prior_mu->layers[0]->as<torch::nn::LinearImpl>()->weight;
+  ASSERT_TRUE(prior.grad().defined());
+  EXPECT_GT(prior.grad().abs().sum().item<double>(), 0.0);
+  delete model;
+  EXPECT_EQ(loss_of(with({}), false).terms.count("draw_speed"), 0u);  // not drawn outside training
+  const LossTerms chained = loss_of(with({{"draw_chained", true}}), true);
+  EXPECT_NE(chained.terms.at("draw_root_mps").item<double>(), on.terms.at("draw_root_mps").item<double>());
+  EXPECT_EQ(HvrnnOptions::from_json(with({{"draw_chained", true}})).to_json().at("draw_chained"), true);
+  auto bad = tiny({{"draw_chained", true}});
+  EXPECT_THROW(HvrnnOptions::from_json(bad), Error);
+}
