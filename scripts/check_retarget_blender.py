@@ -49,8 +49,16 @@ def check_bvh(bvh_path, positions_json):
         return 1
     frames = expected["positions"]
     scene = bpy.context.scene
-    if scene.frame_end - scene.frame_start + 1 != len(frames):
-        print(f"check_retarget_blender: {scene.frame_end - scene.frame_start + 1} frames imported, {len(frames)} written")
+    # The frames the importer keyed, from the action: it sets the scene's frame_end one past the
+    # last frame, and only ever extends the scene (a clip under 250 frames keeps 250).
+    action = arm.animation_data.action if arm.animation_data else None
+    if action is None:
+        print("check_retarget_blender: the armature has no action")
+        return 1
+    first, last = action.frame_range
+    imported = int(round(last - first)) + 1
+    if imported != len(frames):
+        print(f"check_retarget_blender: {imported} frames imported, {len(frames)} written")
         return 1
     size = max(max(abs(c) for c in p) for p in frames[0])
     checked = sorted(set([0, len(frames) // 3, 2 * len(frames) // 3, len(frames) - 1]))
@@ -58,7 +66,7 @@ def check_bvh(bvh_path, positions_json):
     for offset in (0, 1):
         worst = 0.0
         for t in checked:
-            scene.frame_set(scene.frame_start + t - 1 + offset)
+            scene.frame_set(int(round(first)) + t - 1 + offset)
             for j, name in enumerate(names):
                 x, y, z = frames[t][j]
                 head = arm.matrix_world @ arm.pose.bones[name].head
