@@ -50,7 +50,9 @@ DrawObjectives::DrawObjectives(const ModelContext& context, const DrawObjectiveO
     : options_(options) {
   if (!options.any_on()) return;
   foot_ = FootObjectives(context, options.foot(thresholds), family);
-  if (options.draw_speed_weight > 0) speed_terms_ = FootTerms(context, family, thresholds.term_options());
+  // The speed term reads root speeds through the foot terms' FootTerms when they are on.
+  if (options.draw_speed_weight > 0 && !options.foot_on())
+    speed_terms_ = FootTerms(context, family, thresholds.term_options());
 }
 
 void DrawObjectives::add(const FootObjectives::Window& w, bool training, torch::Tensor* loss, LossTerms* out) const {
@@ -59,23 +61,21 @@ void DrawObjectives::add(const FootObjectives::Window& w, bool training, torch::
   foot_.add(w, training, loss, &foot);
   for (const auto& [name, value] : foot.terms) out->terms["draw_" + name] = value;
   if (options_.draw_speed_weight <= 0) return;
-  const auto made = speed_terms_.root_mps(w.made_control);  // [B, T-1]
+  const FootTerms& terms = foot_.on() ? foot_.terms() : speed_terms_;
+  const auto made = terms.root_mps(w.made_control);  // [B, T-1]
   torch::Tensor real;
   {
     torch::NoGradGuard no_grad;
-    real = speed_terms_.root_mps(w.real_control.to(w.made.options()));
+    real = terms.root_mps(w.real_control.to(w.made.options()));
   }
-  torch::Tensor made_mean, real_mean;
-  if (w.valid.defined()) {  // the steps whose two frames are both read
+  // The steps whose two frames are both read (every step without valid).
+  torch::Tensor steps = torch::ones_like(made);
+  if (w.valid.defined()) {
     const auto v = w.valid.to(w.made.options());
-    const auto steps = v.narrow(1, 1, v.size(1) - 1) * v.narrow(1, 0, v.size(1) - 1);
-    const auto count = steps.sum(1).clamp_min(1.0);
-    made_mean = (made * steps).sum(1) / count;
-    real_mean = (real * steps).sum(1) / count;
-  } else {
-    made_mean = made.mean(1);
-    real_mean = real.mean(1);
+    steps = v.narrow(1, 1, v.size(1) - 1) * v.narrow(1, 0, v.size(1) - 1);
   }
+  const auto count = steps.sum(1).clamp_min(1.0);
+  const auto made_mean = (made * steps).sum(1) / count, real_mean = (real * steps).sum(1) / count;
   const auto term = speed_ratio_excess(made_mean, real_mean, options_.draw_speed_tolerance).mean();
   if (training) *loss = *loss + options_.draw_speed_weight * term;
   out->terms["draw_speed"] = term.detach();

@@ -75,7 +75,7 @@ class DrawObjectives {
  private:
   DrawObjectiveOptions options_;
   FootObjectives foot_;  // the three phase-free terms
-  FootTerms speed_terms_;  // root speeds (FootTerms::root_mps)
+  FootTerms speed_terms_;  // root speeds (FootTerms::root_mps) when foot_ is off
 };
 
 }  // namespace mosyn::nn
