@@ -189,7 +189,7 @@ void add_eval_command(CLI::App& app, Action* action) {
       "eval",
       "Score a trained run on held-out data: N samples per held-out control, every metric on the samples and on "
       "the real clips (footsteps, skating, bone lengths, diversity, prediction ADE/FDE, IS/FID); Markdown table");
-  cmd->add_option("run", a->run_dir, "run directory (mosyn train --out)")->required();
+  cmd->add_option("run", a->run_dir, "run directory (mosyn train --out); a classifier run is scored on the held-out clips")->required();
   cmd->add_option("--data", a->data_dir, "prepared dataset directory")->required();
   cmd->add_option("--split", a->options.split, "split of the held-out clips: val or train (default val)");
   cmd->add_option("--n", a->options.num_samples, "samples per control (default 10)");

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "eval/protocol.h"
+#include "nn/registry.h"
 #include "io/json_number.h"
 
 namespace mosyn::eval {
@@ -115,6 +116,7 @@ EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, co
 
 EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& o,
                     const EvalProgressCallback& progress) {
+  if (run.kind == nn::FamilyKind::kClassifier) return evaluate_classifier(run, dataset, o, progress);
   EvalContext context(run, dataset, o, progress);
   EvalResult result;
   result.run_dir = run.run_dir;

@@ -181,10 +181,23 @@ struct EvalResult {
 // or the classifier's skeleton does not match the dataset's. A classifier trained on another
 // feature form of the same skeleton is fine: samples and real clips are decoded and re-encoded
 // as its data (data::encode_clip_for_dataset), so one classifier scores every family.
+// A classifier run is scored by evaluate_classifier instead.
 EvalResult evaluate(const nn::LoadedRun& run, const data::Dataset& dataset, const EvalOptions& options,
                     const EvalProgressCallback& progress = {});
 
-// Loads run_dir (options.checkpoint) and evaluates.
+// A classifier run (nn::FamilyKind::kClassifier) scored on the held-out clips of options.split
+// (chosen as for a motion model: max_clips evenly spread, no augmented copies), each cut into
+// windows as the recognition protocol cuts them. Rows (model: the classifier; real: n/a):
+// "classifier.windows", "classifier.content_acc" / "style_acc" (% of windows recognised),
+// "classifier.is" / "style_is" (Inception scores of the held-out clips), "classifier.fid_floor"
+// (FID between the windows' two halves by index parity: what a perfect model would score), and
+// per label "classifier.content_acc.<content>" / "classifier.style_acc.<style>". Throws
+// mosyn::Error when the split has no clip or the dataset's skeleton is not the classifier's.
+EvalResult evaluate_classifier(const nn::LoadedRun& classifier, const data::Dataset& dataset,
+                               const EvalOptions& options, const EvalProgressCallback& progress = {});
+
+// Loads run_dir (options.checkpoint) and evaluates: evaluate, or evaluate_classifier for a
+// classifier run.
 EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, const EvalOptions& options,
                     const EvalProgressCallback& progress = {});
 

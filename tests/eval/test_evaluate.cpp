@@ -119,6 +119,35 @@ TEST_F(EvaluateTest, EveryMetricIsPresentAndFinite) {
   EXPECT_THAT(r.row("joint_error.pose_initial.f120").label, HasSubstr("4 initial frames at 2.00 s (cm)"));
 }
 
+// A classifier run is scored on the same held-out clips: its rows are the recognition protocol's
+// real column (the same windows through the same network), and per label.
+TEST_F(EvaluateTest, AClassifierIsScoredOnTheHeldOutClips) {
+  eval::EvalOptions e;
+  e.max_clips = 4;
+  e.threads = 1;
+  const eval::EvalResult c = eval::evaluate((*root_ / "classifier").string(), *dataset_, e);
+  EXPECT_EQ(c.family, "classifier");
+  EXPECT_EQ(c.clips, result_->clips);
+  EXPECT_EQ(c.row("classifier.content_acc").model, result_->row("classifier.content_acc").real);
+  EXPECT_EQ(c.row("classifier.style_acc").model, result_->row("classifier.style_acc").real);
+  EXPECT_EQ(c.row("classifier.is").model, result_->row("classifier.is").real);
+  EXPECT_EQ(c.row("classifier.fid_floor").model, result_->row("classifier.fid").real);
+  EXPECT_TRUE(std::isnan(c.row("classifier.content_acc").real));
+  EXPECT_GE(c.row("classifier.windows").model, 4.0);  // at least one window per clip
+  // A row for every content the clips hold and none for the others.
+  const data::DatasetInfo& info = dataset_->info();
+  for (size_t k = 0; k < info.content_labels.size(); ++k) {
+    bool held = false;
+    for (int i : c.clip_indices) held |= dataset_->clips("val")[i].content == static_cast<int>(k);
+    const std::string key = "classifier.content_acc." + info.content_labels[k];
+    SCOPED_TRACE(key);
+    bool found = false;
+    for (const auto& row : c.rows) found |= row.key == key;
+    EXPECT_EQ(found, held);
+    if (found) EXPECT_TRUE(c.row(key).model >= 0 && c.row(key).model <= 100);
+  }
+}
+
 TEST_F(EvaluateTest, JointErrorsNeedLongEnoughClips) {
   eval::EvalOptions e;
   e.num_samples = 1;
