@@ -41,12 +41,31 @@ struct TrainArgs {
   std::string family;
   std::string config_file;
   std::string preset;
+  std::string train_preset;
   nn::TrainOptions options;
   CLI::App* cmd = nullptr;
 };
 
+// --train-preset's help: the generic presets and every family's own.
+std::string train_preset_help() {
+  std::string text = "named training settings, over --config's and under the other flags: ";
+  for (const std::string& name : nn::train_preset_names("")) text += name + ", ";
+  text += "or a family's own (";
+  bool first = true;
+  for (const std::string& family : nn::model_families()) {
+    const size_t generic = nn::train_preset_names("").size();
+    const std::vector<std::string> names = nn::train_preset_names(family);
+    if (names.size() == generic) continue;
+    text += (first ? "" : "; ") + family + ":";
+    first = false;
+    for (size_t i = generic; i < names.size(); ++i) text += " " + names[i];
+  }
+  return text + "); docs/training.md";
+}
+
 // The options of a train command: the resumed run's own (with --resume), then the config file
-// ({"model": {...}, "train": {...}}), then the flags given on the command line.
+// ({"model": {...}, "train": {...}}; a "preset" there starts its section from that preset), then
+// --train-preset's keys, then the other flags given on the command line.
 nn::TrainOptions resolve_train_options(const TrainArgs& a) {
   nn::TrainOptions o;
   if (a.options.resume && a.config_file.empty()) {
@@ -70,7 +89,9 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
       if (key != "model" && key != "train")
         throw Error(a.config_file + ": unknown key '" + key + "'; expected \"model\" and/or \"train\"");
     if (file.contains("train")) {
-      nlohmann::json merged = o.to_json();
+      const bool preset = file["train"].is_object() && file["train"].contains("preset");
+      nlohmann::json merged = preset ? nlohmann::json::object() : o.to_json();
+      merged["family"] = a.family;  // whose presets
       merged.update(file["train"]);
       try {
         o = nn::TrainOptions::from_json(merged);
@@ -79,6 +100,14 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
       }
     }
     if (file.contains("model")) o.model_config = file["model"];
+  }
+  if (!a.train_preset.empty()) {
+    nlohmann::json merged = o.to_json();
+    merged.erase("preset");
+    merged["family"] = a.family;
+    merged.update(nn::train_preset(a.family, a.train_preset));
+    o = nn::TrainOptions::from_json(merged);
+    o.preset = a.train_preset;
   }
   const nn::TrainOptions& flags = a.options;
   auto given = [&](const char* name) { return a.cmd->count(name) > 0; };
@@ -373,6 +402,7 @@ void add_train_command(CLI::App& app, Action* action) {
   train->add_option("--out,-o", o.out_dir, "run directory to create (or continue with --resume)")->required();
   train->add_option("--config", t->config_file, "JSON file {\"model\": {...}, \"train\": {...}}; flags override it");
   train->add_option("--preset", t->preset, "named model preset, e.g. 'paper' for MoGlow's published size");
+  train->add_option("--train-preset", t->train_preset, train_preset_help());
   train->add_option("--steps", o.steps, "total optimiser steps")->capture_default_str();
   train->add_option("--batch", o.batch, "windows per batch (global: shared by the processes of a data-parallel run)")
       ->capture_default_str();

@@ -15,8 +15,9 @@
 //
 // The declaring calls (field, written_if, rule, ignore, include) chain on a temporary, so a list is built in
 // one expression and then only read (one static list per family).
-// Supported member types: int, double, bool, std::string, std::vector<int>, std::vector<double>,
-// std::vector<std::string>, std::map<std::string, double>.
+// Supported member types: int, std::uint64_t, double, bool, std::string, std::vector<int>,
+// std::vector<double>, std::vector<std::string>, std::map<std::string, double>, nlohmann::json (an
+// object kept as it is).
 // Errors are mosyn::Error "<family> config: ...". Header-only; no LibTorch.
 #pragma once
 
@@ -59,6 +60,18 @@ struct JsonType<int> {
     return j.is_number_integer() && j.get<std::int64_t>() >= INT_MIN && j.get<std::int64_t>() <= INT_MAX;
   }
   static const char* error() { return "must be an integer"; }
+};
+template <>
+struct JsonType<std::uint64_t> {  // seeds: any non-negative integer
+  static bool is(const nlohmann::json& j) {
+    return j.is_number_unsigned() || (j.is_number_integer() && j.get<std::int64_t>() >= 0);
+  }
+  static const char* error() { return "must be a non-negative integer"; }
+};
+template <>
+struct JsonType<nlohmann::json> {  // a nested config kept as it is (e.g. a training's model overrides)
+  static bool is(const nlohmann::json& j) { return j.is_object(); }
+  static const char* error() { return "must be a JSON object"; }
 };
 template <>
 struct JsonType<double> {

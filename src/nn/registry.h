@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -33,6 +34,9 @@ struct FamilyInfo {
   // A config small enough to train in seconds on the project's synthetic motion: used by the
   // conformance test that runs over every registered family and by the tiny test models.
   nlohmann::json tiny_config = nlohmann::json::object();
+  // Named training presets of this family (nn/training/train.h train_preset): name -> the
+  // TrainOptions keys it sets, e.g. "paper" -> its paper's batch, learning rate and schedule.
+  std::map<std::string, nlohmann::json> train_presets;
 };
 
 // Adds a family (replacing one of the same name). Thread-safe.

@@ -1,5 +1,6 @@
 // Family options through nn/options_fields.h: the same JSON keys, defaults, written keys and error
 // messages as the hand-written readers they replaced, and the shipped models' configs round-trip.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -15,11 +16,13 @@
 #include "nn/moglow/moglow.h"
 #include "nn/mojo/mojo.h"
 #include "nn/options_fields.h"
+#include "nn/registry.h"
 #include "nn/run_info.h"
 #include "nn/rvae/rvae.h"
 #include "nn/training/train.h"
 
 using namespace mosyn;
+using ::testing::HasSubstr;
 using namespace mosyn::nn;
 namespace fs = std::filesystem;
 
@@ -39,6 +42,16 @@ std::string error_of(const std::string& family, const nlohmann::json& config) {
     if (family == "moglow") MoGlowOptions::from_json(config, positions_context());
     if (family == "rvae") RvaeOptions::from_json(config);
     if (family == "classifier") ClassifierOptions::from_json(config);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The message of the mosyn::Error that reading training options throws, or "" when none.
+std::string train_error_of(const nlohmann::json& config) {
+  try {
+    TrainOptions::from_json(config);
   } catch (const Error& e) {
     return e.what();
   }
@@ -224,4 +237,45 @@ TEST(Options, ShippedTrainConfigsLoad) {
     }
   }
   EXPECT_GE(seen, 6);
+}
+
+// Training options go through their field list: the same type and value errors as the families'
+// options, and named presets resolved before the keys given beside them.
+TEST(Options, TrainingFieldsAndPresets) {
+  EXPECT_THAT(train_error_of({{"stpes", 10}}), HasSubstr("training config: unknown key 'stpes'"));
+  EXPECT_THAT(train_error_of({{"batch", "32"}}), HasSubstr("training config: 'batch' must be an integer"));
+  EXPECT_THAT(train_error_of({{"batch", 0}}), HasSubstr("training config: batch must be >= 1"));
+  EXPECT_THAT(train_error_of({{"seed", -1}}), HasSubstr("training config: 'seed' must be a non-negative integer"));
+  EXPECT_THAT(train_error_of({{"window_sampling", "clips"}}), HasSubstr("window_sampling must be \"windows\" or \"frames\", not \"clips\""));
+  EXPECT_THAT(train_error_of({{"speed_balance", 2}}), HasSubstr("speed_balance must be in [0, 1]"));
+  EXPECT_THAT(train_error_of({{"model_config", 3}}), HasSubstr("'model_config' must be a JSON object"));
+  // The defaults write what the struct holds; resume and overwrite are never written.
+  const nlohmann::json defaults = TrainOptions().to_json();
+  EXPECT_EQ(defaults.at("steps"), 10000);
+  EXPECT_EQ(defaults.at("seed"), 1u);
+  EXPECT_FALSE(defaults.contains("resume") || defaults.contains("overwrite") || defaults.contains("preset"));
+  EXPECT_EQ(TrainOptions::from_json(defaults).to_json(), defaults);
+
+  // A preset first, then the keys beside it; the resolved values and the preset's name are written.
+  const TrainOptions smoke = TrainOptions::from_json({{"preset", "smoke"}, {"batch", 6}});
+  EXPECT_EQ(smoke.steps, 2);
+  EXPECT_EQ(smoke.val_windows, 8);
+  EXPECT_EQ(smoke.batch, 6);
+  const nlohmann::json written = smoke.to_json();
+  EXPECT_EQ(written.at("preset"), "smoke");
+  EXPECT_EQ(TrainOptions::from_json(written).to_json(), written);
+  const TrainOptions finetune = TrainOptions::from_json({{"preset", "finetune"}});
+  EXPECT_DOUBLE_EQ(finetune.lr, 2e-4);
+  EXPECT_TRUE(finetune.keep_checkpoints);
+  // A family's own presets need the family; each holds only valid keys.
+  const TrainOptions paper = TrainOptions::from_json({{"family", "hvrnn"}, {"preset", "paper"}});
+  EXPECT_EQ(paper.batch, 64);
+  EXPECT_DOUBLE_EQ(paper.grad_clip, 0.1);
+  EXPECT_THAT(train_error_of({{"preset", "paper"}}), HasSubstr("unknown training preset 'paper' (known: finetune, smoke)"));
+  EXPECT_THAT(train_error_of({{"family", "dfn"}, {"preset", "fast"}}), HasSubstr("unknown training preset 'fast' for dfn (known: finetune, smoke)"));
+  for (const std::string& family : model_families())
+    for (const std::string& name : train_preset_names(family)) {
+      SCOPED_TRACE(family + " " + name);
+      EXPECT_NO_THROW(TrainOptions::from_json({{"family", family}, {"preset", name}}));
+    }
 }

@@ -510,4 +510,7 @@ MOSYN_REGISTER_FAMILY(hvrnn, FamilyInfo{"hvrnn", FamilyKind::kMotion,
                                         },
                                         {{"word_hidden", 12}, {"word_code", 8}, {"feature_hidden", 12},
                                          {"feature", 8}, {"latent", 4}, {"gaussian_hidden", 12},
-                                         {"gaussian_layers", 1}, {"state", 12}, {"label_code", 3}}})
+                                         {"gaussian_layers", 1}, {"state", 12}, {"label_code", 3}},
+                                        // Ghorbani et al. 2020, section 4.2: Adam at 1e-3, batch 64,
+                                        // gradient norm clipped at 0.1.
+                                        {{"paper", {{"batch", 64}, {"lr", 1e-3}, {"warmup", 0}, {"grad_clip", 0.1}}}}})

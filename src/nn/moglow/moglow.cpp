@@ -662,4 +662,9 @@ MOSYN_REGISTER_FAMILY(moglow, FamilyInfo{"moglow", FamilyKind::kMotion,
                                            return std::make_shared<MoGlowImpl>(
                                                MoGlowOptions::from_json(config, context), context);
                                          },
-                                         {{"num_steps", 2}, {"hidden", 16}, {"tau", 3}, {"dropout", 0.5}}})
+                                         {{"num_steps", 2}, {"hidden", 16}, {"tau", 3}, {"dropout", 0.5}},
+                                        // Henter et al. 2020, section 4.2: Adam, batch 100, 160k steps at
+                                        // 1e-4 (human); 80k with 1k Noam warm-up steps to 1e-3 (quadruped).
+                                        {{"paper", {{"batch", 100}, {"steps", 160000}, {"lr", 1e-4}, {"warmup", 0}}},
+                                         {"paper-quadruped",
+                                          {{"batch", 100}, {"steps", 80000}, {"lr", 1e-3}, {"warmup", 1000}}}}})

@@ -437,5 +437,7 @@ MOSYN_REGISTER_FAMILY(rvae, FamilyInfo{"rvae", FamilyKind::kMotion,
                                          return std::make_shared<RvaeImpl>(RvaeOptions::from_json(config), context);
                                        },
                                        {{"encoder_channels", {8, 12}}, {"control_channels", {6, 10}},
-                                        {"decoder_channels", {8}}, {"latent", 5}, {"kernel", 5}}})
+                                        {"decoder_channels", {8}}, {"latent", 5}, {"kernel", 5}},
+                                       // Habibie et al. 2017, section 4.2: Adam at a constant 5e-4.
+                                       {{"paper", {{"lr", 5e-4}, {"warmup", 0}}}}})
 

@@ -47,8 +47,10 @@
 #include <nlohmann/json.hpp>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "data/dataset.h"
+#include "nn/options_fields.h"
 #include "nn/training/distributed.h"
 #include "nn/training/stage.h"
 
@@ -107,10 +109,30 @@ struct TrainOptions {
   // records "world_size"). Default: one process.
   DistributedOptions distributed;
 
+  // The named preset these options started from ("" = none): train_preset(family, preset) was
+  // applied before the other keys. Recorded in to_json as "preset" beside the resolved values.
+  std::string preset;
+
+  // Every option above as one field list (nn/options_fields.h), as the model families declare
+  // theirs: its keys, types, checks and one-line docs.
+  static const OptionFields<TrainOptions>& fields();
+  // The options as JSON: every field (label_weights and keep_checkpoints only when set; resume and
+  // overwrite never), "family", and "preset" when set.
   nlohmann::json to_json() const;
-  // Reads the keys to_json writes; unknown keys throw mosyn::Error.
+  // Reads a (partial) JSON object: "family" first, then the preset named by "preset" (if any),
+  // then every other key over it, then the value checks. Throws mosyn::Error "training config:
+  // ..." for an unknown key, a wrong type, a bad value or an unknown preset.
   static TrainOptions from_json(const nlohmann::json& j);
 };
+
+// Named training presets: the keys of TrainOptions that a preset sets. Every family takes
+// "smoke" (a handful of steps on a few windows: what `make test` runs the recipes with) and
+// "finetune" (continuing a trained model: peak 2e-4, 100 warm-up steps, every 100 steps kept and
+// validated); a family adds its own (FamilyInfo::train_presets, e.g. "paper": its paper's
+// optimiser settings). Throws mosyn::Error naming the known presets for an unknown one.
+nlohmann::json train_preset(const std::string& family, const std::string& name);
+// The names train_preset knows for a family ("" = the generic ones only), generic ones first.
+std::vector<std::string> train_preset_names(const std::string& family);
 
 // Reported to TrainCallbacks::on_progress every log_every steps and at validations.
 struct TrainProgress {
