@@ -58,7 +58,8 @@ def by_labels(a, styles):
     for k, style in enumerate(styles):
         d = os.path.join(a.out, f"walk-{style}")
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(101 + k + a.seed), "--content", "walk",
-             "--style", style, "--seconds", str(a.seconds), "--prefix", style, "--threads", a.threads])
+             "--style", style, "--seconds", str(a.seconds), "--prefix", style, "--threads", a.threads]
+            + (["--foot-lock"] if a.foot_lock else []))
         files += [os.path.join(d, f"{style}_{i:03d}.bvh") for i in range(a.n)]
     return files
 
@@ -71,7 +72,7 @@ def by_continuing(a, clips, source_dir):
         prefix = f"clip{idx:04d}"
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx + a.seed), "--continue",
              os.path.join(source_dir, source), "--seconds", str(a.seconds), "--prefix", prefix, "--threads", a.threads]
-            + observed)
+            + observed + (["--foot-lock"] if a.foot_lock else []))
         for i in range(a.n):
             full = os.path.join(d, f"{prefix}_{i:03d}.bvh")
             # The sidecar says how many of the written frames are the observed ones.
@@ -97,6 +98,7 @@ def main():
     ap.add_argument("--threads", default="1")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default="")
+    ap.add_argument("--foot-lock", action="store_true", help="sample with --foot-lock (core/foot_lock.h)")
     a = ap.parse_args()
     info, clips = val_clips(a.dataset, ["walk"])
     if a.max_clips and len(clips) > a.max_clips:
