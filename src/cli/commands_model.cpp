@@ -105,7 +105,11 @@ nn::TrainOptions resolve_train_options(const TrainArgs& a) {
     nlohmann::json merged = o.to_json();
     merged.erase("preset");
     merged["family"] = a.family;
-    merged.update(nn::train_preset(a.family, a.train_preset));
+    try {
+      merged.update(nn::train_preset(a.family, a.train_preset));
+    } catch (const Error& e) {
+      throw UsageError(std::string("--train-preset: ") + e.what());
+    }
     o = nn::TrainOptions::from_json(merged);
     o.preset = a.train_preset;
   }

@@ -75,6 +75,24 @@ TEST_F(CliModelTest, TrainRejectsUnknownFamily) {
   EXPECT_THAT(r.err, HasSubstr("nosuchmodel"));
 }
 
+// --train-preset: its keys over the config file's, the other flags over both; an unknown one is a
+// usage error naming the known ones.
+TEST_F(CliModelTest, TrainPresetsSitBetweenTheConfigAndTheFlags) {
+  const std::string config = *root_ + "/preset-config.json";
+  std::ofstream(config) << R"({"model": {"num_steps": 2, "hidden": 16, "tau": 3}, "train": {"batch": 3, "steps": 50, "seed": 4}})";
+  const auto r = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ + "/run-smoke --config " +
+                           config + " --train-preset smoke --seed 9 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json train = io::read_json(*root_ + "/run-smoke/config.json")["train"];
+  EXPECT_EQ(train["preset"], "smoke");
+  EXPECT_EQ(train["steps"], 2);   // the preset's, over the file's 50
+  EXPECT_EQ(train["batch"], 4);   // the preset's, over the file's 3
+  EXPECT_EQ(train["seed"], 9);    // the flag's
+  const auto bad = run_mosyn("train moglow --data " + *root_ + "/dataset --out " + *root_ + "/run-bad --train-preset fast");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("unknown training preset 'fast' for moglow (known: finetune, smoke, paper, paper-quadruped)"));
+}
+
 TEST_F(CliModelTest, SampleWritesBvhNpyAndSidecars) {
   const std::string out = *root_ + "/samples";
   const auto r = run_mosyn("sample " + *root_ + "/run --out " + out +
