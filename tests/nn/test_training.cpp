@@ -102,7 +102,7 @@ TEST(Training, WindowSamplingIsReadAndChecked) {
     TrainOptions::from_json({{"window_sampling", "clips"}});
     FAIL() << "an unknown window sampling was accepted";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("window_sampling must be \"windows\" or \"frames\", got \"clips\""));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("window_sampling must be \"windows\" or \"frames\", not \"clips\""));
   }
 }
 
