@@ -65,33 +65,12 @@ bool bad_joint(const mosyn_crowd* crowd, int32_t joint) {
   return !crowd || joint < 0 || joint >= skeleton_of(crowd).num_joints();
 }
 
-// A generator pose as a one-frame motion of the model's skeleton.
-mosyn::Motion motion_of(const mosyn::Skeleton& skeleton, const mosyn::nn::JointTransforms& pose, double fps) {
-  mosyn::Motion m = mosyn::Motion::rest(skeleton, 1, fps);
-  for (int j = 0; j < skeleton.num_joints(); ++j) {
-    const float* q = &pose.rotations_wxyz[4 * static_cast<size_t>(j)];
-    m.rotation(0, j) = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
-  }
-  m.translation(0, 0) = pose.root_translation;
-  return m;
-}
-
-// A generator pose played on the rig (mosyn_crowd_set_rig).
-mosyn::nn::JointTransforms on_rig(const mosyn_crowd* crowd, const mosyn::nn::JointTransforms& pose) {
-  const auto& run = crowd->generator->run();
-  const mosyn::Motion frame = crowd->retarget->apply(motion_of(run.dataset.skeleton, pose, run.dataset.fps));
-  mosyn::nn::JointTransforms out;
-  for (const Eigen::Quaterniond& q : frame.rotations)
-    for (double c : {q.w(), q.x(), q.y(), q.z()}) out.rotations_wxyz.push_back(static_cast<float>(c));
-  out.root_translation = frame.translation(0, 0);
-  return out;
-}
-
 const mosyn::nn::JointTransforms& pose_of(const mosyn_crowd* crowd, int32_t slot) {
   auto* c = const_cast<mosyn_crowd*>(crowd);
   if (!c->pose_valid[slot]) {
-    c->poses[slot] = c->generator->joint_transforms(slot);
-    if (c->retarget) c->poses[slot] = on_rig(c, c->poses[slot]);
+    // On a rig (mosyn_crowd_set_rig): the model's pose retargeted before it is turned to floats.
+    c->poses[slot] = c->retarget ? mosyn::nn::joint_transforms_of(c->retarget->apply(c->generator->pose_motion(slot)))
+                                 : c->generator->joint_transforms(slot);
     c->pose_valid[slot] = 1;
   }
   return c->poses[slot];
@@ -187,10 +166,8 @@ mosyn_status mosyn_crowd_set_rig(mosyn_crowd* crowd, const char* rig_path) {
     // Only the root's translation reaches the caller (mosyn_crowd_root): the path goes there.
     rig->rig.translatable.assign(static_cast<size_t>(rig->rig.skeleton.num_joints()), false);
     rig->rig.translatable[0] = true;
-    const auto& run = crowd->generator->run();
-    const mosyn::Motion reference =
-        motion_of(run.dataset.skeleton, crowd->generator->joint_transforms(slot), run.dataset.fps);
-    crowd->retarget = std::make_unique<mosyn::StreamingRetarget>(run.dataset.skeleton, reference, rig->rig);
+    crowd->retarget = std::make_unique<mosyn::StreamingRetarget>(crowd->generator->run().dataset.skeleton,
+                                                                 crowd->generator->pose_motion(slot), rig->rig);
     crowd->rig = std::move(rig);
     return MOSYN_OK;
   });

@@ -284,20 +284,21 @@ void Generator::remove(int slot) {
 
 bool Generator::active(int slot) const { return impl_->active.at(slot) != 0; }
 
-JointTransforms Generator::joint_transforms(int slot) const {
+Motion Generator::pose_motion(int slot) const {
   const auto& m = *impl_;
   const auto& info = m.run.dataset;
   const int64_t d = m.run.context.pose_dim;
   const RootPose& r = m.roots.at(slot);
+  if (m.frames == 0 || !m.active[slot]) return Motion::rest(info.skeleton, 1, info.fps);
+  const std::vector<float> still(static_cast<size_t>(m.run.context.control_dim), 0.0f);
+  return data::decode(info.skeleton, info.layout, m.last_pose.data() + slot * d, still.data(), 1, info.fps, r.position,
+                      r.heading_rad);
+}
+
+JointTransforms Generator::joint_transforms(int slot) const { return joint_transforms_of(pose_motion(slot)); }
+
+JointTransforms joint_transforms_of(const Motion& frame) {
   JointTransforms out;
-  Motion frame;
-  if (m.frames == 0 || !m.active[slot]) {
-    frame = Motion::rest(info.skeleton, 1, info.fps);
-  } else {
-    const std::vector<float> still(static_cast<size_t>(m.run.context.control_dim), 0.0f);
-    frame = data::decode(info.skeleton, info.layout, m.last_pose.data() + slot * d, still.data(), 1, info.fps,
-                         r.position, r.heading_rad);
-  }
   out.rotations_wxyz.reserve(static_cast<size_t>(frame.num_joints) * 4);
   for (int j = 0; j < frame.num_joints; ++j) {
     const auto& q = frame.rotation(0, j);

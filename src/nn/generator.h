@@ -70,6 +70,9 @@ struct RootPose {
   double heading_rad = 0.0;
 };
 
+// The engine-facing transforms of frame 0 of a motion: its rotations as floats, the root's translation.
+JointTransforms joint_transforms_of(const Motion& frame);
+
 class Generator {
  public:
   // Loads run_dir (load_run) and starts a stream. Throws mosyn::Error when the run cannot be
@@ -124,6 +127,9 @@ class Generator {
   // at its root; for joint-position models the rotations are solved from the positions). Before
   // the first step: the rest pose.
   JointTransforms joint_transforms(int slot) const;
+  // The same pose as a one-frame Motion of the run's skeleton (double precision), for callers that
+  // process it further (e.g. retarget it onto another rig) before taking its transforms.
+  Motion pose_motion(int slot) const;
 
   int batch() const;
   int pose_dim() const;
