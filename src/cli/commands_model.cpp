@@ -48,12 +48,13 @@ struct TrainArgs {
 
 // --train-preset's help: the generic presets and every family's own.
 std::string train_preset_help() {
+  const std::vector<std::string> generic_names = nn::train_preset_names("");
   std::string text = "named training settings, over --config's and under the other flags: ";
-  for (const std::string& name : nn::train_preset_names("")) text += name + ", ";
+  for (const std::string& name : generic_names) text += name + ", ";
   text += "or a family's own (";
   bool first = true;
+  const size_t generic = generic_names.size();
   for (const std::string& family : nn::model_families()) {
-    const size_t generic = nn::train_preset_names("").size();
     const std::vector<std::string> names = nn::train_preset_names(family);
     if (names.size() == generic) continue;
     text += (first ? "" : "; ") + family + ":";

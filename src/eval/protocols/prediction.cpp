@@ -67,12 +67,10 @@ void PredictionProtocol::run(EvalContext& ctx, EvalResult& result) const {
   result.rows.push_back({"prediction.mmade_m", "prediction MMADE (m)", pm.mmade_m, kNaN});
   result.rows.push_back({"prediction.mmfde_m", "prediction MMFDE (m)", pm.mmfde_m, kNaN});
   result.rows.push_back({"prediction.fse", "prediction FSE (nats)", pm.fse, 0.0});
-  if (constant_velocity.size() == windows.size()) {
-    const PredictionMetrics cv = evaluate_predictions(constant_velocity, o.multimodal_threshold_m);
-    result.rows.push_back({"prediction.cv_ade_m", "constant-velocity ADE (m)", cv.ade_m, kNaN});
-    result.rows.push_back({"prediction.cv_fde_m", "constant-velocity FDE (m)", cv.fde_m, kNaN});
-    result.rows.push_back({"prediction.ade_over_cv", "ADE / constant-velocity ADE", pm.ade_m / cv.ade_m, kNaN});
-  }
+  const PredictionMetrics cv = evaluate_predictions(constant_velocity, o.multimodal_threshold_m);
+  result.rows.push_back({"prediction.cv_ade_m", "constant-velocity ADE (m)", cv.ade_m, kNaN});
+  result.rows.push_back({"prediction.cv_fde_m", "constant-velocity FDE (m)", cv.fde_m, kNaN});
+  result.rows.push_back({"prediction.ade_over_cv", "ADE / constant-velocity ADE", pm.ade_m / cv.ade_m, kNaN});
 }
 
 }  // namespace

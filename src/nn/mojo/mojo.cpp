@@ -269,8 +269,7 @@ LossTerms MojoImpl::cvae_loss(const torch::Tensor& past, const torch::Tensor& fu
              batch.content, batch.style},
             is_training(), &out.terms["loss"], &out);
   if (draw_.on() && is_training()) {  // the same future drawn from the prior, as at sampling
-    auto z_prior = torch::randn(mean.sizes(), torch::TensorOptions().dtype(mean.scalar_type())).to(mean.device());
-    const auto drawn = with_last(decode(h_x, latent_sequence(z_prior, f), last));
+    const auto drawn = with_last(decode(h_x, latent_sequence(torch::randn_like(mean), f), last));
     draw_.add({drawn.narrow(-1, 0, d), drawn.narrow(-1, d, c), real.narrow(-1, 0, d), real.narrow(-1, d, c), {},
                batch.content, batch.style},
               true, &out.terms["loss"], &out);

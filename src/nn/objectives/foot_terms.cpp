@@ -38,11 +38,21 @@ torch::Tensor FootTerms::raw_control(const torch::Tensor& control, const torch::
   return control.to(opts) * control_std_.to(opts) + control_mean_.to(opts);
 }
 
+namespace {
+
+// The root's ground speed (m/s) into frames 1..T-1 from raw control [B, T, C] (the control of frame
+// t is the root's step into it: sideways, forward in metres; turn): [B, T-1]. eps > 0 under the
+// root keeps the gradient finite at standstill.
+torch::Tensor root_speed_mps(const torch::Tensor& raw_control, double fps, double eps) {
+  const auto step = raw_control.narrow(1, 1, raw_control.size(1) - 1).narrow(2, 0, 2);
+  return (step.pow(2).sum(-1) + eps).sqrt() * fps;
+}
+
+}  // namespace
+
 torch::Tensor FootTerms::root_mps(const torch::Tensor& control) const {
   if (heels_.empty()) throw Error("FootTerms: not built from a model context");
-  const auto ctrl = raw_control(control, control.options());
-  const auto step = ctrl.narrow(1, 1, ctrl.size(1) - 1).narrow(2, 0, 2);  // sideways, forward (m)
-  return (step.pow(2).sum(-1) + 1e-12).sqrt() * fps_;  // a finite gradient at standstill
+  return root_speed_mps(raw_control(control, control.options()), fps_, 1e-12);
 }
 
 namespace {
@@ -61,9 +71,7 @@ FootTerms::HeelSpeeds FootTerms::speeds(const torch::Tensor& made, const torch::
   const auto opts = made.options();
   const auto made_ctrl = raw_control(made_control, opts);
   const auto real_ctrl = made_control.is_same(real_control) ? made_ctrl : raw_control(real_control, opts);
-  // The control of frame t is the root's step into it (sideways, forward in metres; turn).
-  const auto step = real_ctrl.narrow(1, 1, real_ctrl.size(1) - 1).narrow(2, 0, 2);
-  const auto root_mps = (step.norm(2, -1, /*keepdim=*/true) * fps_).detach();
+  const auto root_mps = root_speed_mps(real_ctrl, fps_, 0.0).unsqueeze(-1).detach();
   HeelSpeeds out{joint_ground_speed_mps(positions_m(made), made_ctrl, heels_, fps_),
                  joint_ground_speed_mps(positions_m(real.to(opts)), real_ctrl, heels_, fps_),
                  torch::full({}, planted_mps_, opts), root_mps};
