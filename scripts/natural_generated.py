@@ -14,6 +14,7 @@ The real side is always the same held-out walk takes (their source BVH files).
 
     scripts/natural_generated.py RUN DATASET --mode labels|continue --out DIR [--n 2] [--seconds 10]
         [--observed-frames 20 | --observed 1] [--styles a,b] [--max-clips 30] [--seed K] [--json OUT.json]
+        [--foot-lock] [--temperature T]
 
 Needs Debian's python3-numpy. Prints a Markdown table; --json writes every figure.
 """
@@ -53,13 +54,18 @@ def pelvis_mps(files):
     return float(np.mean(speeds))
 
 
+def extra_flags(a):
+    """The sampling flags every request shares."""
+    return (["--foot-lock"] if a.foot_lock else []) + (["--temperature", str(a.temperature)] if a.temperature != 1.0 else [])
+
+
 def by_labels(a, styles):
     files = []
     for k, style in enumerate(styles):
         d = os.path.join(a.out, f"walk-{style}")
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(101 + k + a.seed), "--content", "walk",
              "--style", style, "--seconds", str(a.seconds), "--prefix", style, "--threads", a.threads]
-            + (["--foot-lock"] if a.foot_lock else []))
+            + extra_flags(a))
         files += [os.path.join(d, f"{style}_{i:03d}.bvh") for i in range(a.n)]
     return files
 
@@ -72,7 +78,7 @@ def by_continuing(a, clips, source_dir):
         prefix = f"clip{idx:04d}"
         run([a.mosyn, "sample", a.run, "--out", d, "--n", str(a.n), "--seed", str(idx + a.seed), "--continue",
              os.path.join(source_dir, source), "--seconds", str(a.seconds), "--prefix", prefix, "--threads", a.threads]
-            + observed + (["--foot-lock"] if a.foot_lock else []))
+            + observed + extra_flags(a))
         for i in range(a.n):
             full = os.path.join(d, f"{prefix}_{i:03d}.bvh")
             # The sidecar says how many of the written frames are the observed ones.
@@ -99,6 +105,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default="")
     ap.add_argument("--foot-lock", action="store_true", help="sample with --foot-lock (core/foot_lock.h)")
+    ap.add_argument("--temperature", type=float, default=1.0, help="sample with this --temperature")
     a = ap.parse_args()
     info, clips = val_clips(a.dataset, ["walk"])
     if a.max_clips and len(clips) > a.max_clips:

@@ -87,4 +87,6 @@ config "$HELD, $FREE, $PREV, \"boundary_weight\": 2.0, $DRAW" $S5 0.0002 250 5 >
 train run "$OUT/train-config.json" run-4c
 
 # --- Export -------------------------------------------------------------------------------------
-"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite
+# 10. Shipped with root planting (src/nn/root_planting.h, its defaults): sampling takes each
+#     frame's root step from the foot on the floor, the poses unchanged.
+"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite --root-planting '{}'

@@ -39,4 +39,6 @@ JSON
 "$MOSYN" train mojo --data "$OUT/data/bandai2-markers15" --out "$OUT/run" --config "$OUT/train-config.json" --overwrite
 
 # --- Export: the last step (best.pt holds the best CVAE checkpoint; the stages' losses differ) ---
-"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite
+# Shipped with root planting (src/nn/root_planting.h, its defaults): sampling takes each frame's
+# root step from the foot on the floor; the fitted bodies are unchanged.
+"$MOSYN" export "$OUT/run" --out "$OUT" --checkpoint checkpoint.pt --overwrite --root-planting '{}'

@@ -25,6 +25,7 @@
 #include "io/rig.h"
 #include "nn/checkpoint.h"
 #include "nn/model.h"
+#include "nn/root_planting.h"
 #include "nn/run.h"
 #include "nn/sample_job.h"
 #include "nn/sampling.h"
@@ -208,6 +209,7 @@ struct SampleArgs {
   double observed_s = 1.0;
   int observed_frames = -1;
   bool foot_lock = false;
+  bool raw_root = false;
   bool realtime = false;
   std::string format = "bvh";  // comma-separated: bvh, glb, gltf
   std::string skeleton;        // --skeleton: a rig (BVH or glTF) to write the motions on
@@ -233,6 +235,7 @@ nn::SampleJobOptions job_options(const SampleArgs& a) {
   o.seed = a.seed;
   o.temperature = a.temperature;
   o.foot_lock = a.foot_lock;
+  o.raw_root = a.raw_root;
   o.realtime = a.realtime;
   o.threads = a.threads;
   return o;
@@ -343,6 +346,8 @@ void run_sample(const SampleArgs& a) {
                                                                  {"observed_frames", plan.observed_frames}}},
                               {"content", a.content},
                               {"style", a.style},
+                              {"root_planted", run.traits.control == nn::InputUse::kGenerates &&
+                                                   run.root_planting.has_value() && !a.raw_root},
                               {"foot_lock", a.foot_lock ? nlohmann::json{{"contacts", lock.contacts},
                                                                          {"max_correction_m", lock.max_correction_m}}
                                                         : nlohmann::json(nullptr)},
@@ -364,10 +369,36 @@ void run_sample(const SampleArgs& a) {
                observed > 0 ? (", the first " + std::to_string(observed) + " observed").c_str() : "", a.out_dir.c_str());
 }
 
+struct ExportArgs {
+  std::string run_dir, out_dir, checkpoint = "best.pt";
+  bool overwrite = false;
+  bool half = false;
+  std::vector<std::string> average;
+  std::string root_planting;  // JSON object for config.json's "root_planting" ("" = as the run's)
+};
+
+// config.json of the run, with --root-planting's section when given (checked as load_run reads it).
+std::string exported_config(const std::string& run_dir, const std::string& root_planting) {
+  const std::string path = (std::filesystem::path(run_dir) / "config.json").string();
+  if (root_planting.empty()) return io::read_file(path);
+  nlohmann::json config = io::read_json(path);
+  nlohmann::json section;
+  try {
+    section = nlohmann::json::parse(root_planting);
+  } catch (const std::exception& e) {
+    throw UsageError(std::string("--root-planting: not JSON (") + e.what() + "); e.g. '{}' for the defaults");
+  }
+  config["root_planting"] = section;
+  nn::root_planting_from_config(config, "--root-planting");
+  return config.dump(2) + "\n";
+}
+
 // A run directory without optimiser state: what ships under models/.
-void run_export(const std::string& run_dir, const std::string& out_dir, const std::string& checkpoint, bool overwrite,
-                bool half, const std::vector<std::string>& average) {
+void run_export(const ExportArgs& e) {
   namespace fs = std::filesystem;
+  const std::string &run_dir = e.run_dir, &out_dir = e.out_dir, &checkpoint = e.checkpoint;
+  const bool overwrite = e.overwrite, half = e.half;
+  const std::vector<std::string>& average = e.average;
   if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !overwrite)
     throw Error(out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
   nn::LoadOptions load;
@@ -381,8 +412,10 @@ void run_export(const std::string& run_dir, const std::string& out_dir, const st
     const nn::LoadedRun other = nn::load_run(run_dir, other_load);
     nn::fold_into_mean(*run.trainable, *other.trainable, static_cast<int>(k) + 1);
   }
+  const std::string config = exported_config(run_dir, e.root_planting);
   fs::create_directories(out_dir);
-  for (const char* name : {"config.json", "stats.json", "log.jsonl"}) {
+  io::write_file_atomically((fs::path(out_dir) / "config.json").string(), config);
+  for (const char* name : {"stats.json", "log.jsonl"}) {
     const fs::path from = fs::path(run_dir) / name;
     if (fs::exists(from)) io::write_file_atomically((fs::path(out_dir) / name).string(), io::read_file(from.string()));
   }
@@ -493,6 +526,9 @@ void add_sample_command(CLI::App& app, Action* action) {
   sample->add_flag("--foot-lock", s->foot_lock,
                    "post-process: pin each foot contact to one floor position by two-bone IK (off: the model's raw "
                    "motion)");
+  sample->add_flag("--raw-root", s->raw_root,
+                   "keep the root steps a model makes itself as it makes them, where its run plants them on the "
+                   "feet (config.json's root_planting; for comparisons)");
   sample->add_flag("--realtime", s->realtime,
                    "play the control frame by frame through the real-time Generator (as the C ABI and serve): frame "
                    "t sees the control up to t only, a path is shaped causally as it plays");
@@ -501,12 +537,6 @@ void add_sample_command(CLI::App& app, Action* action) {
 }
 
 void add_export_command(CLI::App& app, Action* action) {
-  struct ExportArgs {
-    std::string run_dir, out_dir, checkpoint = "best.pt";
-    bool overwrite = false;
-    bool half = false;
-    std::vector<std::string> average;
-  };
   auto e = std::make_shared<ExportArgs>();
   CLI::App* exp = app.add_subcommand(
       "export", "Copy a run's config, statistics, log and weights (no optimiser state) to a model directory to ship");
@@ -518,9 +548,10 @@ void add_export_command(CLI::App& app, Action* action) {
   exp->add_option("--average", e->average,
                   "checkpoint files of this run's config whose weights are averaged with --checkpoint's "
                   "(stochastic weight averaging)");
-  exp->callback([action, e] {
-    *action = [e] { run_export(e->run_dir, e->out_dir, e->checkpoint, e->overwrite, e->half, e->average); };
-  });
+  exp->add_option("--root-planting", e->root_planting,
+                  "JSON object written as config.json's root_planting ('{}' for the defaults): sampling takes the "
+                  "root steps of a family that makes its own root motion from its planted feet (nn/root_planting.h)");
+  exp->callback([action, e] { *action = [e] { run_export(*e); }; });
 }
 
 }  // namespace

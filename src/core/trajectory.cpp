@@ -14,11 +14,6 @@ constexpr double kPi = 3.14159265358979323846;
 
 Eigen::Vector3d axis_vector(int axis) { return Eigen::Vector3d::Unit(axis); }
 
-// Facing direction at heading 0 and the sideways direction (90 degrees counter-clockwise from
-// it about up): for up axis a, e_{a+1} and e_{a+2} (Y-up: +Z and +X), since R_a(90) e_{a+1} = e_{a+2}.
-int forward_axis(const Skeleton& s) { return (s.up_axis + 1) % 3; }
-int sideways_axis(const Skeleton& s) { return (s.up_axis + 2) % 3; }
-
 void check_up_axis(const Skeleton& s) {
   if (s.up_axis < 0 || s.up_axis > 2) throw Error("skeleton up_axis must be 0, 1 or 2");
 }
@@ -45,6 +40,10 @@ V extend_by_reflection(const std::vector<V>& x, int i) {
 }
 
 }  // namespace
+
+// For up axis a, e_{a+1} and e_{a+2} (Y-up: +Z and +X), since R_a(90) e_{a+1} = e_{a+2}.
+int forward_axis(const Skeleton& s) { return (s.up_axis + 1) % 3; }
+int sideways_axis(const Skeleton& s) { return (s.up_axis + 2) % 3; }
 
 Eigen::Vector3d estimate_forward_in_root(const Skeleton& skeleton) {
   skeleton.validate();

@@ -48,6 +48,12 @@ struct GroundTrajectory {
 // and walking clips then move forward along the heading.
 Eigen::Vector3d estimate_forward_in_root(const Skeleton& skeleton);
 
+// The coordinate of the facing direction at heading 0 and of the sideways direction (90 degrees
+// counter-clockwise from it about up): RootDelta::forward and ::sideways lie along these axes in
+// the character's ground frame (Y-up: 2 and 0).
+int forward_axis(const Skeleton& skeleton);
+int sideways_axis(const Skeleton& skeleton);
+
 // Rotation by angle_rad about the skeleton's up axis.
 Eigen::Quaterniond heading_rotation(const Skeleton& skeleton, double angle_rad);
 

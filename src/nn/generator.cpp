@@ -16,6 +16,7 @@
 #include "data/representation.h"
 #include "nn/model.h"
 #include "nn/request_fill.h"
+#include "nn/root_planting.h"
 #include "nn/standardiser.h"
 
 namespace mosyn::nn {
@@ -58,6 +59,7 @@ struct Generator::Impl {
   std::vector<float> last_control;
   std::vector<float> ahead;  // raw [B, K, C]: the predicted control after this frame
   std::vector<StreamingFootLock> foot_locks;  // per character, with options.foot_lock
+  std::vector<RootPlanter> planters;  // per character, for a family's own root motion (run.root_planting)
   std::vector<char> active;       // per slot: filled (add / start) or free (remove)
   std::vector<float> last_pose;   // raw [B, D] of the last step (zeros for free slots)
 
@@ -100,6 +102,8 @@ struct Generator::Impl {
       last_control.assign(made.data_ptr<float>(), made.data_ptr<float>() + b * c);
     }
     pose = st.unpose(pose.to(torch::kCPU, torch::kFloat32)).contiguous();
+    for (size_t k = 0; k < planters.size(); ++k)
+      if (active[k]) plant_root_frame(run, &planters[k], pose.data_ptr<float>() + k * d, last_control.data() + k * c);
     move_roots();
     ++frames;
     float* p = pose.data_ptr<float>();
@@ -185,6 +189,19 @@ struct Generator::Impl {
     if (options.foot_lock)
       for (int k = 0; k < options.batch; ++k)
         foot_locks.emplace_back(run.dataset.skeleton, run.dataset.fps, options.foot_lock_options);
+    planters.clear();
+    for (int k = 0; plants_root() && k < options.batch; ++k) planters.push_back(new_planter(options.prefix_pose));
+  }
+
+  bool plants_root() const {
+    return run.traits.control == InputUse::kGenerates && run.root_planting.has_value() && !options.raw_root;
+  }
+
+  // A character's root planter, shown the prefix it continues.
+  RootPlanter new_planter(const std::vector<float>& prefix_pose) const {
+    RootPlanter planter(run.dataset.skeleton, run.dataset.fps, *run.root_planting);
+    show_prefix(run, prefix_pose, &planter);
+    return planter;
   }
 };
 
@@ -251,6 +268,7 @@ void Generator::add(int slot, const CharacterOptions& character) {
   std::fill_n(m.last_pose.begin() + slot * d, d, 0.0f);
   if (m.options.foot_lock)
     m.foot_locks[slot] = StreamingFootLock(m.run.dataset.skeleton, m.run.dataset.fps, m.options.foot_lock_options);
+  if (m.plants_root()) m.planters[slot] = m.new_planter(character.prefix_pose);
   m.active[slot] = 1;
 }
 
@@ -271,6 +289,7 @@ void Generator::start_from(int slot, const Generator& warmed, int from_slot, std
   std::copy_n(w.last_control.begin() + from_slot * c, c, m.last_control.begin() + slot * c);
   std::copy_n(w.last_pose.begin() + from_slot * d, d, m.last_pose.begin() + slot * d);
   if (m.options.foot_lock && w.options.foot_lock) m.foot_locks[slot] = w.foot_locks[from_slot];
+  if (m.plants_root()) m.planters[slot] = w.planters[from_slot];
   m.active[slot] = 1;
 }
 
@@ -328,6 +347,7 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
   g.seed = seed;
   g.temperature = temperature;
   g.prefix_pose = extras.prefix_pose;
+  g.raw_root = extras.raw_root;
   g.prefix_control = extras.prefix_control;
   g.content = {extras.content};
   g.style = {extras.style};

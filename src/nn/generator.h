@@ -43,6 +43,9 @@ struct GeneratorOptions {
   // core/foot_lock.h StreamingFootLock, and encoded again, so step() returns foot-locked features.
   bool foot_lock = false;
   FootLockOptions foot_lock_options;
+  // Keep the root steps of a family that makes its own root motion as the model makes them, even
+  // when the run plants them on the feet (LoadedRun::root_planting, nn/root_planting.h).
+  bool raw_root = false;
   int warmup_frames = 0;     // frames of standing generated and dropped at (re)start, so the first
                             // frame is a natural pose (nn/sampling.h SampleExtras::warmup_frames)
 };

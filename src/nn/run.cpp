@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
+#include "nn/root_planting.h"
 #include "io/zip_check.h"
 #include "nn/checkpoint.h"
 #include "nn/run_info.h"
@@ -353,6 +354,7 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   run.context = context_from_json(run.config["context"], config_path);
   run.dataset = data::info_from_json(run.config["dataset"], config_path);
   run.stats = data::stats_from_json(io::read_json(stats_path), stats_path);
+  run.root_planting = root_planting_from_config(run.config, config_path);
   if (static_cast<int>(run.stats.pose_mean.size()) != run.context.pose_dim ||
       static_cast<int>(run.stats.control_mean.size()) != run.context.control_dim)
     throw Error(stats_path + ": statistics do not match the model's dimensions");

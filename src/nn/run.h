@@ -4,7 +4,10 @@
 
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+
+#include "core/root_planting.h"
 
 #include "data/dataset.h"
 #include "nn/context.h"
@@ -34,6 +37,9 @@ struct LoadedRun {
   std::shared_ptr<MotionModel> model;  // the same when it generates motion (kind kMotion), else null
   ModelTraits traits;               // model->traits() (default for classifiers), without LibTorch headers
   int step = 0;                     // optimiser steps of the loaded checkpoint
+  // config.json's "root_planting" (nn/root_planting.h): how sampling plants the root steps of a
+  // family that makes its own root motion; nullopt keeps the model's own steps.
+  std::optional<RootPlantingOptions> root_planting;
 };
 
 // Throws mosyn::Error naming the file when config.json, stats.json or the checkpoint is missing,

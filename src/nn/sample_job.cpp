@@ -165,6 +165,7 @@ SamplePlan plan_sample(const LoadedRun& run, const SampleJobOptions& o) {
     throw InvalidArgument(run.run_dir + ": this " + run.family +
                           " model was trained without labels; --content and --style need one trained with labels");
   plan.extras.warmup_frames = warmup_frames(run, o.warmup_s);
+  plan.extras.raw_root = o.raw_root;
   return plan;
 }
 

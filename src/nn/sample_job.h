@@ -40,6 +40,7 @@ struct SampleJobOptions {
   std::uint64_t seed = 0;
   double temperature = 1.0;
   bool foot_lock = false;            // pin planted feet (core/foot_lock.h) after generation
+  bool raw_root = false;             // keep a family's own root steps, unplanted (SampleExtras::raw_root)
   // Play the control frame by frame through the real-time Generator (nn/generator.h), as the C ABI
   // and `mosyn serve` do: frame t sees the control up to t only; paths and files are not smoothed
   // ahead of time (the Generator's controller shapes them causally), foot locking is the

@@ -30,6 +30,9 @@ struct SampleExtras {
   // preceding motion for the same reason, Sec. 5). 0 = none; kFamilyWarmup = the family's
   // default. Not used with a prefix: real motion already gives the model its start.
   int warmup_frames = 0;
+  // Keep the root steps a family makes itself as they are, even when the run plants them
+  // (LoadedRun::root_planting): the model's raw output, for comparisons.
+  bool raw_root = false;
 };
 
 // One generated motion in raw feature units: the poses and the root motion they move along.
@@ -46,8 +49,10 @@ struct SampledMotion {
 // read only its length T (zeros will do) and return their own. The n samples are generated as one
 // batch from a generator seeded with `seed`: same run + inputs + seed give identical output;
 // samples within a call and across seeds differ. temperature scales the latent standard deviation
-// (1 = the model's distribution). Throws mosyn::Error on size mismatches, labels for a model that
-// takes none, and a prefix for a model that cannot continue motion.
+// (1 = the model's distribution). A family that makes its own root motion has its steps planted
+// on its feet (nn/root_planting.h) when the run says so and extras.raw_root is false; the prefix
+// shows the planter the feet it starts from. Throws mosyn::Error on size mismatches, labels for a
+// model that takes none, and a prefix for a model that cannot continue motion.
 std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vector<float>& control, int n,
                                           std::uint64_t seed, double temperature = 1.0,
                                           const SampleExtras& extras = {});

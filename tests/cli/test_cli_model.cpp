@@ -255,6 +255,27 @@ TEST_F(CliModelTest, ExportShipsTheSameModelAndAveragesCheckpoints) {
   EXPECT_EQ(run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + e1).exit_code, 1);
 }
 
+// `export --root-planting`: the section lands in config.json, checked as load_run reads it; a model
+// steered by its control ignores it (its sidecar says the root was not planted).
+TEST_F(CliModelTest, ExportWritesRootPlanting) {
+  const std::string run = *root_ + "/run", out = *root_ + "/export-planted";
+  std::filesystem::remove_all(out);
+  const auto r = run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + out +
+                           " --root-planting '{\"release_height_m\": 0.08}'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(slurp(out + "/config.json"), HasSubstr("\"release_height_m\": 0.08"));
+  ASSERT_EQ(run_mosyn("sample " + out + " --out " + out + "-s --n 1 --seconds 1 --threads 1").exit_code, 0);
+  EXPECT_THAT(slurp(out + "-s/sample_000.json"), HasSubstr("\"root_planted\": false"));
+  const auto not_json = run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + out + " --overwrite" +
+                                  " --root-planting '{'");
+  EXPECT_EQ(not_json.exit_code, 2);
+  EXPECT_THAT(not_json.err, HasSubstr("--root-planting"));
+  const auto bad = run_mosyn("export " + run + " --checkpoint checkpoint.pt --out " + out + " --overwrite" +
+                             " --root-planting '{\"release_height_m\": 0.001}'");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("release_height_m must be above contact_height_m"));
+}
+
 TEST_F(CliModelTest, TruncatedCheckpointIsAClearError) {
   const std::string run2 = *root_ + "/run_truncated";
   std::filesystem::remove_all(run2);

@@ -201,4 +201,5 @@ MOSYN_REGISTER_FAMILY(classifier,
                                    return std::make_shared<ClassifierImpl>(ClassifierOptions::from_json(config),
                                                                            context);
                                  },
-                                 {{"channels", 8}, {"kernel", 3}, {"features", 8}}})
+                                 {{"channels", 8}, {"kernel", 3}, {"features", 8}},
+                                 {}})

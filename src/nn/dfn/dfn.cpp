@@ -545,4 +545,5 @@ MOSYN_REGISTER_FAMILY(dfn, FamilyInfo{"dfn", FamilyKind::kMotion,
                                        {"post_s_hidden", 8},
                                        {"z_hidden", 8},
                                        {"td_hidden", 8},
-                                       {"td_max", 2}}})
+                                       {"td_max", 2}},
+                                 {}})

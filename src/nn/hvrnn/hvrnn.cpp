@@ -125,15 +125,37 @@ torch::Tensor HvrnnImpl::teacher_previous(const torch::Tensor& frames) const {
   return torch::cat({none, with_flag(last)}, 1);
 }
 
-torch::Tensor HvrnnImpl::decode_generated(const torch::Tensor& words, torch::Tensor* previous) {
+torch::Tensor HvrnnImpl::decode_generated(const torch::Tensor& words, torch::Tensor* previous, torch::Tensor* before) {
   if (!options_.decoder_previous_frame) return normalise_rotations(decode_words(words));
+  const int64_t l = options_.word_length;
+  const bool blend = before && options_.boundary_blend > 0 && l >= 2;
   std::vector<torch::Tensor> out;
   for (int64_t i = 0; i < words.size(1); ++i) {
     auto frames = normalise_rotations(decode_words(words.narrow(1, i, 1), previous->unsqueeze(1)));  // [B, l, F]
-    *previous = with_flag(frames.select(1, options_.word_length - 1));
+    if (blend) {
+      if (before->defined()) frames = blend_boundary(frames, previous->narrow(-1, 0, frame_dim()), *before);
+      *before = frames.select(1, l - 2);
+    }
+    *previous = with_flag(frames.select(1, l - 1));
     out.push_back(frames);
   }
   return torch::cat(out, 1);
+}
+
+torch::Tensor HvrnnImpl::blend_boundary(const torch::Tensor& frames, const torch::Tensor& previous,
+                                        const torch::Tensor& before) const {
+  const int64_t l = frames.size(1);
+  auto first = frames.select(1, 0);
+  auto expected = previous + 0.5 * ((previous - before) + (frames.select(1, 1) - first));
+  auto decay = torch::pow(torch::full({l}, options_.boundary_blend, frames.options()),
+                          torch::arange(l, frames.options())).view({1, l, 1});
+  return normalise_rotations(frames + (expected - first).unsqueeze(1) * decay);
+}
+
+torch::Tensor HvrnnImpl::prefix_before(const SampleRequest& request, int64_t b) {
+  auto frames = prefix_frames(request, b);
+  if (!frames.defined() || frames.size(1) < 2) return {};
+  return frames.select(1, frames.size(1) - 2);
 }
 
 torch::Tensor HvrnnImpl::prefix_previous(const SampleRequest& request, int64_t b) {
@@ -445,7 +467,8 @@ SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
   const int64_t k = words.defined() ? words.size(1) : 0, n_gen = (t + l - 1) / l;
   auto u = unroll(words, {}, k + n_gen, h0, a, request.temperature, &gen);
   auto previous = prefix_previous(request, b);
-  auto x = decode_generated(u.out.narrow(1, k, n_gen), &previous).narrow(1, 0, t);
+  auto before = prefix_before(request, b);
+  auto x = decode_generated(u.out.narrow(1, k, n_gen), &previous, &before).narrow(1, 0, t);
   return {x.narrow(-1, 0, d).contiguous(), x.narrow(-1, d, c).contiguous()};
 }
 
@@ -458,6 +481,7 @@ struct HvrnnStream : StreamState {
   torch::Tensor a;
   torch::Tensor frames;  // [B, l, F] the current word's frames (undefined before the first)
   torch::Tensor previous;  // [B, F + 1] the frame before the next word and a 1, or zeros
+  torch::Tensor before;    // [B, F] the frame before that (boundary_blend), undefined before two
   int64_t next = 0;      // index of the next frame in `frames`
   double temperature = 1.0;
 };
@@ -481,6 +505,7 @@ std::unique_ptr<StreamState> HvrnnImpl::begin_stream(const SampleRequest& reques
   for (int64_t i = 0; words.defined() && i < words.size(1); ++i)
     cell_step(s->hs, words.select(1, i), {}, s->a, s->temperature, &s->gen, nullptr);
   s->previous = prefix_previous(request, b);
+  s->before = prefix_before(request, b);
   s->next = options_.word_length;
   return s;
 }
@@ -491,7 +516,7 @@ StreamFrame HvrnnImpl::step_stream(StreamState& state, const torch::Tensor&) {
   if (!s) throw Error("hvrnn: step_stream needs a stream from this family's begin_stream");
   if (s->next >= options_.word_length) {
     auto word = cell_step(s->hs, {}, {}, s->a, s->temperature, &s->gen, nullptr);
-    s->frames = decode_generated(word.unsqueeze(1), &s->previous);
+    s->frames = decode_generated(word.unsqueeze(1), &s->previous, &s->before);
     s->next = 0;
   }
   auto f = s->frames.select(1, s->next++);

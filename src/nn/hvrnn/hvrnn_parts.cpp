@@ -66,6 +66,10 @@ const OptionFields<HvrnnOptions>& hvrnn_fields() {
           .field("draw_chained", &O::draw_chained,
                  "training: the draw terms' words decoded one after another, as generation does")
           .written_if([](const O& o) { return o.draw_chained; })
+          .field("boundary_blend", &O::boundary_blend,
+                 "generation: decay a frame of the offset joining each word to the frames before it (0 = off)",
+                 in_range(0.0, 1.0, false))
+          .written_if([](const O& o) { return o.boundary_blend > 0; })
           .rule([](const O& o) -> std::string {
             return o.draw_chained && !o.decoder_previous_frame ? "draw_chained needs decoder_previous_frame" : "";
           })

@@ -410,4 +410,5 @@ MOSYN_REGISTER_FAMILY(mojo, FamilyInfo{"mojo", FamilyKind::kMotion,
                                         {"dlow_bands", 2},
                                         {"dlow_k", 3},
                                         {"dlow_hidden", 8},
-                                        {"projection_threads", 1}}})
+                                        {"projection_threads", 1}},
+                                 {}})

@@ -562,3 +562,35 @@ TEST(Hvrnn, DrawTermsOnPriorWords) {
   auto bad = tiny({{"draw_chained", true}});
   EXPECT_THROW(HvrnnOptions::from_json(bad), Error);
 }
+
+// boundary_blend: a generated word is joined to the two frames before it (the offset from the
+// continuation of their velocity, averaged with the word's own first step, decays by the factor a
+// frame), by hand on a channel the rotation normalisation leaves alone; and streaming still
+// equals sample() with it.
+TEST(HvrnnModel, BoundaryBlendJoinsWordsToTheFramesBeforeThem) {
+  torch::manual_seed(12);
+  HvrnnImpl m(HvrnnOptions::from_json(tiny({{"decoder_previous_frame", true}, {"boundary_blend", 0.5}})),
+              rotations_context());
+  m.eval();
+  const ModelContext context = rotations_context();
+  const int64_t f = m.options().word_length, dim = context.pose_dim + context.control_dim;
+  auto frames = torch::randn({1, f, dim});
+  auto previous = torch::randn({1, dim}), before = torch::randn({1, dim});
+  const auto out = m.blend_boundary(frames, previous, before);
+  const int64_t c = dim - 1;  // the last control channel
+  const double p1 = previous[0][c].item<double>(), p0 = before[0][c].item<double>();
+  const double f0 = frames[0][0][c].item<double>(), f1 = frames[0][1][c].item<double>();
+  const double offset = p1 + 0.5 * ((p1 - p0) + (f1 - f0)) - f0;
+  for (int64_t j = 0; j < f; ++j)
+    EXPECT_NEAR(out[0][j][c].item<double>(), frames[0][j][c].item<double>() + offset * std::pow(0.5, j), 1e-5) << j;
+
+  SampleRequest r = request(2, 10, 13);
+  r.prefix_pose = rotation_batch(2, 7).pose;
+  const SampleOutput offline = m.sample(r);
+  auto stream = m.begin_stream(r);
+  for (int64_t t = 0; t < 10; ++t) {
+    const StreamFrame s = m.step_stream(*stream, {});
+    EXPECT_TRUE(torch::allclose(s.pose, offline.pose.select(1, t), 1e-5, 1e-5)) << t;
+  }
+  EXPECT_THROW(HvrnnOptions::from_json(tiny({{"boundary_blend", 1.0}})), Error);
+}
