@@ -104,6 +104,7 @@ void add_compare_command(CLI::App& app, Action* action) {
   cmd->add_option("--classifier", a->classifier, "a classifier run (mosyn train classifier): adds accuracy, IS, FID");
   cmd->add_flag("--paths", o.synthetic_paths, "also walk N samples along the drawn paths (rows paths.*)");
   cmd->add_flag("--foot-lock", o.foot_lock, "also score the foot-locked samples (rows foot_locked.*)");
+  cmd->add_flag("--raw-root", o.raw_root, "sample every run with its model's own root steps (no root_planting)");
   cmd->add_option("--long-horizon", o.long_horizon_s,
                   "also sample this many seconds and score stability per window (rows long_horizon.*; default off)");
   cmd->add_option("--long-horizon-window", o.long_horizon_window_s, "long horizon: window length, s (default 10)");

@@ -228,6 +228,9 @@ void add_eval_command(CLI::App& app, Action* action) {
                 "score them against the real clips (rows paths.*)");
   cmd->add_flag("--foot-lock", a->options.foot_lock,
                 "also score the samples after the foot-lock post-process (rows foot_locked.*; the raw rows stay)");
+  cmd->add_flag("--raw-root", a->options.raw_root,
+                "sample with the model's own root steps where its run plants them on the feet (config.json's "
+                "root_planting)");
   cmd->add_option("--long-horizon", a->options.long_horizon_s,
                   "also sample this many seconds (a meandering walk, or free generation) and score stability per "
                   "window: bone lengths, skating, body speed, freezing, exploding (rows long_horizon.*; default off)");

@@ -173,6 +173,7 @@ CompareResult compare(const std::vector<std::string>& run_dirs, const std::vecto
   nn::LoadOptions lo;
   lo.threads = options.eval.threads;
   lo.checkpoint = options.eval.checkpoint;
+  lo.raw_root = options.eval.raw_root;
   std::vector<nn::LoadedRun> runs;
   for (const auto& dir : run_dirs) runs.push_back(nn::load_run(dir, lo));
   std::vector<CompareEntry> entries;

@@ -111,6 +111,7 @@ EvalResult evaluate(const std::string& run_dir, const data::Dataset& dataset, co
   nn::LoadOptions lo;
   lo.threads = options.threads;
   lo.checkpoint = options.checkpoint;
+  lo.raw_root = options.raw_root;
   return evaluate(nn::load_run(run_dir, lo), dataset, options, progress);
 }
 

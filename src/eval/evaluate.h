@@ -47,6 +47,9 @@ struct EvalOptions {
   // Also score the samples after the foot-lock post-process (core/foot_lock.h): rows
   // "foot_locked.<key>" beside the raw ones, which stay what the model makes.
   bool foot_lock = false;
+  // Sample a run whose config plants its root (nn/root_planting.h) with the model's own root steps
+  // instead (nn::LoadOptions::raw_root; the overloads that load the run).
+  bool raw_root = false;
   // Also sample every synthetic path of eval/path_protocol.h (num_samples each) and score them
   // against the held-out walk clips (every held-out clip when none walks): rows "paths.<key>".
   bool synthetic_paths = false;

@@ -355,6 +355,7 @@ LoadedRun load_run(const std::string& run_dir, const LoadOptions& options) {
   run.dataset = data::info_from_json(run.config["dataset"], config_path);
   run.stats = data::stats_from_json(io::read_json(stats_path), stats_path);
   run.root_planting = root_planting_from_config(run.config, config_path);
+  if (options.raw_root) run.root_planting.reset();
   if (static_cast<int>(run.stats.pose_mean.size()) != run.context.pose_dim ||
       static_cast<int>(run.stats.control_mean.size()) != run.context.control_dim)
     throw Error(stats_path + ": statistics do not match the model's dimensions");

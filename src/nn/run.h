@@ -23,6 +23,9 @@ struct LoadOptions {
   std::string checkpoint = "checkpoint.pt";  // file inside the run dir, e.g. "best.pt"
   std::string device = "cpu";
   int threads = 0;  // LibTorch CPU threads; 0 = all cores, < 0 = leave as is
+  // Leave LoadedRun::root_planting empty even when config.json has one (still checked): the model's
+  // own root steps, for comparing them with the planted ones (`--raw-root`).
+  bool raw_root = false;
 };
 
 struct LoadedRun {

@@ -76,6 +76,9 @@ TEST(RootPlantingShipped, PlantedStepsKeepThePosesAndStopTheSlide) {
   if (!std::filesystem::exists(kModel + "/checkpoint.pt")) GTEST_SKIP() << "no shipped model";
   LoadedRun run = load_run(kModel, LoadOptions{"checkpoint.pt", "cpu", 1});
   ASSERT_TRUE(run.root_planting.has_value()) << "models/hvrnn-bandai/config.json plants its root";
+  LoadOptions unplanted{"checkpoint.pt", "cpu", 1};
+  unplanted.raw_root = true;
+  EXPECT_FALSE(load_run(kModel, unplanted).root_planting.has_value());
   const int frames = 150, n = 2;
   SampleExtras extras;
   extras.content = 0;  // walk
