@@ -346,8 +346,7 @@ void run_sample(const SampleArgs& a) {
                                                                  {"observed_frames", plan.observed_frames}}},
                               {"content", a.content},
                               {"style", a.style},
-                              {"root_planted", run.traits.control == nn::InputUse::kGenerates &&
-                                                   run.root_planting.has_value() && !a.raw_root},
+                              {"root_planted", nn::plants_root(run, a.raw_root)},
                               {"foot_lock", a.foot_lock ? nlohmann::json{{"contacts", lock.contacts},
                                                                          {"max_correction_m", lock.max_correction_m}}
                                                         : nlohmann::json(nullptr)},
@@ -377,56 +376,49 @@ struct ExportArgs {
   std::string root_planting;  // JSON object for config.json's "root_planting" ("" = as the run's)
 };
 
-// config.json of the run, with --root-planting's section when given (checked as load_run reads it).
-std::string exported_config(const std::string& run_dir, const std::string& root_planting) {
-  const std::string path = (std::filesystem::path(run_dir) / "config.json").string();
-  if (root_planting.empty()) return io::read_file(path);
-  nlohmann::json config = io::read_json(path);
-  nlohmann::json section;
+// The run's config with --root-planting's section (checked as load_run reads it).
+nlohmann::json with_root_planting(nlohmann::json config, const std::string& root_planting) {
   try {
-    section = nlohmann::json::parse(root_planting);
+    config["root_planting"] = nlohmann::json::parse(root_planting);
   } catch (const std::exception& e) {
     throw UsageError(std::string("--root-planting: not JSON (") + e.what() + "); e.g. '{}' for the defaults");
   }
-  config["root_planting"] = section;
   nn::root_planting_from_config(config, "--root-planting");
-  return config.dump(2) + "\n";
+  return config;
 }
 
 // A run directory without optimiser state: what ships under models/.
 void run_export(const ExportArgs& e) {
   namespace fs = std::filesystem;
-  const std::string &run_dir = e.run_dir, &out_dir = e.out_dir, &checkpoint = e.checkpoint;
-  const bool overwrite = e.overwrite, half = e.half;
-  const std::vector<std::string>& average = e.average;
-  if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !overwrite)
-    throw Error(out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
+  if (fs::exists(e.out_dir) && !fs::is_empty(e.out_dir) && !e.overwrite)
+    throw Error(e.out_dir + ": already exists and is not empty (add --overwrite to replace its model files)");
   nn::LoadOptions load;
-  load.checkpoint = checkpoint;
-  const nn::LoadedRun run = nn::load_run(run_dir, load);
+  load.checkpoint = e.checkpoint;
+  const nn::LoadedRun run = nn::load_run(e.run_dir, load);
+  const std::optional<nlohmann::json> config =
+      e.root_planting.empty() ? std::nullopt : std::optional(with_root_planting(run.config, e.root_planting));
   // Stochastic weight averaging: the mean of --checkpoint's weights and each averaged file's, all
   // loaded into this run's model (so of its family and config).
-  for (size_t k = 0; k < average.size(); ++k) {
+  for (size_t k = 0; k < e.average.size(); ++k) {
     nn::LoadOptions other_load;
-    other_load.checkpoint = fs::absolute(average[k]).string();
-    const nn::LoadedRun other = nn::load_run(run_dir, other_load);
+    other_load.checkpoint = fs::absolute(e.average[k]).string();
+    const nn::LoadedRun other = nn::load_run(e.run_dir, other_load);
     nn::fold_into_mean(*run.trainable, *other.trainable, static_cast<int>(k) + 1);
   }
-  const std::string config = exported_config(run_dir, e.root_planting);
-  fs::create_directories(out_dir);
-  io::write_file_atomically((fs::path(out_dir) / "config.json").string(), config);
-  for (const char* name : {"stats.json", "log.jsonl"}) {
-    const fs::path from = fs::path(run_dir) / name;
-    if (fs::exists(from)) io::write_file_atomically((fs::path(out_dir) / name).string(), io::read_file(from.string()));
+  fs::create_directories(e.out_dir);
+  for (const char* name : {"config.json", "stats.json", "log.jsonl"}) {
+    const fs::path from = fs::path(e.run_dir) / name, to = fs::path(e.out_dir) / name;
+    if (config && from.filename() == "config.json") io::write_json(to.string(), *config);
+    else if (fs::exists(from)) io::write_file_atomically(to.string(), io::read_file(from.string()));
   }
   nn::CheckpointState state;
   state.step = run.step;
-  if (half) nn::narrow_to_half(*run.trainable);
-  nn::save_checkpoint((fs::path(out_dir) / "checkpoint.pt").string(), *run.trainable, nullptr, state);
+  if (e.half) nn::narrow_to_half(*run.trainable);
+  nn::save_checkpoint((fs::path(e.out_dir) / "checkpoint.pt").string(), *run.trainable, nullptr, state);
   const std::string averaged =
-      average.empty() ? "" : ", averaged with " + std::to_string(average.size()) + " more checkpoints";
+      e.average.empty() ? "" : ", averaged with " + std::to_string(e.average.size()) + " more checkpoints";
   std::fprintf(stderr, "exported step %d of %s (%s) to %s/checkpoint.pt (weights only%s%s)\n", run.step,
-               run_dir.c_str(), checkpoint.c_str(), out_dir.c_str(), half ? ", float16" : "", averaged.c_str());
+               e.run_dir.c_str(), e.checkpoint.c_str(), e.out_dir.c_str(), e.half ? ", float16" : "", averaged.c_str());
 }
 
 

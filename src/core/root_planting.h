@@ -53,7 +53,8 @@ class RootPlanter {
   void reset();
   // False when the skeleton has no legs: step() returns step_m unchanged.
   bool has_feet() const { return !legs_.empty(); }
-  const RootPlantingOptions& options() const { return options_; }
+  // Frames of the floor window (options.floor_window_s at fps): the history step() reads.
+  int window_frames() const { return window_frames_; }
 
  private:
   struct Point {

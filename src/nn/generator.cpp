@@ -190,18 +190,7 @@ struct Generator::Impl {
       for (int k = 0; k < options.batch; ++k)
         foot_locks.emplace_back(run.dataset.skeleton, run.dataset.fps, options.foot_lock_options);
     planters.clear();
-    for (int k = 0; plants_root() && k < options.batch; ++k) planters.push_back(new_planter(options.prefix_pose));
-  }
-
-  bool plants_root() const {
-    return run.traits.control == InputUse::kGenerates && run.root_planting.has_value() && !options.raw_root;
-  }
-
-  // A character's root planter, shown the prefix it continues.
-  RootPlanter new_planter(const std::vector<float>& prefix_pose) const {
-    RootPlanter planter(run.dataset.skeleton, run.dataset.fps, *run.root_planting);
-    show_prefix(run, prefix_pose, &planter);
-    return planter;
+    if (plants_root(run, options.raw_root)) planters.assign(options.batch, planter_after(run, options.prefix_pose));
   }
 };
 
@@ -268,7 +257,7 @@ void Generator::add(int slot, const CharacterOptions& character) {
   std::fill_n(m.last_pose.begin() + slot * d, d, 0.0f);
   if (m.options.foot_lock)
     m.foot_locks[slot] = StreamingFootLock(m.run.dataset.skeleton, m.run.dataset.fps, m.options.foot_lock_options);
-  if (m.plants_root()) m.planters[slot] = m.new_planter(character.prefix_pose);
+  if (!m.planters.empty()) m.planters[slot] = planter_after(m.run, character.prefix_pose);
   m.active[slot] = 1;
 }
 
@@ -289,7 +278,7 @@ void Generator::start_from(int slot, const Generator& warmed, int from_slot, std
   std::copy_n(w.last_control.begin() + from_slot * c, c, m.last_control.begin() + slot * c);
   std::copy_n(w.last_pose.begin() + from_slot * d, d, m.last_pose.begin() + slot * d);
   if (m.options.foot_lock && w.options.foot_lock) m.foot_locks[slot] = w.foot_locks[from_slot];
-  if (m.plants_root()) m.planters[slot] = w.planters[from_slot];
+  if (!m.planters.empty()) m.planters[slot] = w.planters.empty() ? planter_after(m.run, {}) : w.planters[from_slot];
   m.active[slot] = 1;
 }
 
@@ -347,8 +336,8 @@ std::vector<SampledMotion> stream_motions(const LoadedRun& run, const std::vecto
   g.seed = seed;
   g.temperature = temperature;
   g.prefix_pose = extras.prefix_pose;
-  g.raw_root = extras.raw_root;
   g.prefix_control = extras.prefix_control;
+  g.raw_root = extras.raw_root;
   g.content = {extras.content};
   g.style = {extras.style};
   g.foot_lock = foot_lock;

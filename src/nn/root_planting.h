@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/root_planting.h"
 #include "nn/options_fields.h"
@@ -17,6 +18,8 @@ namespace mosyn::nn {
 struct LoadedRun;
 struct SampledMotion;
 
+// The keys of config.json's "root_planting" (types only: RootPlantingOptions::validate checks
+// the values).
 const OptionFields<RootPlantingOptions>& root_planting_fields();
 
 // config.json's "root_planting" (nullopt without the key). Throws mosyn::Error naming config_path
@@ -24,20 +27,23 @@ const OptionFields<RootPlantingOptions>& root_planting_fields();
 std::optional<RootPlantingOptions> root_planting_from_config(const nlohmann::json& config,
                                                             const std::string& config_path);
 
-// Replaces the floor steps (control columns 0, 1: dx, dz metres) of `motion`'s frames from
-// first_frame on by the planted ones; the frames before it (an observed prefix) only show the
-// planter the feet and floors. motion holds raw pose [T, D] and control [T, C] of `run`.
-// Decodes the poses once on the floor origin (data::decode with no root motion: for the markers
-// form that is a body fit per frame). Throws mosyn::Error when the sizes do not match the run.
-void plant_root(const LoadedRun& run, const RootPlantingOptions& options, int first_frame, SampledMotion* motion);
+// Whether sampling plants `run`'s root steps: its family makes its own root motion, its config
+// has root_planting, and the caller did not ask for the raw root.
+bool plants_root(const LoadedRun& run, bool raw_root);
 
-// The frame-by-frame form (the real-time Generator): plants the step control_row[0..1] of the raw
-// pose row [D] that follows the frames `planter` has seen, in place. Each row is decoded alone on
-// the floor origin. planter belongs to one character of `run` (a stream's state).
+// A planter for one motion of `run` (which plants_root) that continues the raw prefix [P, D]
+// (empty: none): the prefix's last frames, up to the floor window, show it the feet and floors.
+RootPlanter planter_after(const LoadedRun& run, const std::vector<float>& prefix_pose);
+
+// Plants the step control_row[0..1] (dx, dz metres) of the raw pose row [D] that follows the
+// frames `planter` has seen, in place; the row is decoded alone on the floor origin. The
+// frame-by-frame form, as the real-time Generator steps.
 void plant_root_frame(const LoadedRun& run, RootPlanter* planter, const float* pose_row, float* control_row);
 
-// Shows `planter` the last frames of a raw prefix [P, D] (up to its floor window) as plant_root
-// does before a continuation: their feet and floors, their steps unchanged.
-void show_prefix(const LoadedRun& run, const std::vector<float>& prefix_pose, RootPlanter* planter);
+// Plants the floor steps of a generated motion (raw pose [T, D], control [T, C]) that follows the
+// raw prefix [P, D], in place: as plant_root_frame frame by frame, but the poses decoded as one
+// sequence (for the markers form, each frame's body fit starts from the last). Throws
+// mosyn::Error when the sizes do not match the run.
+void plant_root(const LoadedRun& run, const std::vector<float>& prefix_pose, SampledMotion* motion);
 
 }  // namespace mosyn::nn

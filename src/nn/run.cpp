@@ -10,9 +10,9 @@
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/json_file.h"
-#include "nn/root_planting.h"
 #include "io/zip_check.h"
 #include "nn/checkpoint.h"
+#include "nn/root_planting.h"
 #include "nn/run_info.h"
 
 namespace mosyn::nn {

@@ -2,7 +2,6 @@
 // MotionModel::sample.
 #include "nn/sampling.h"
 
-#include <algorithm>
 #include <cmath>
 
 #include <torch/types.h>
@@ -30,27 +29,6 @@ std::vector<float> with_lead_in(const std::vector<float>& control, int64_t c, in
   for (int64_t k = 0; k < w; ++k) out.insert(out.end(), first_step.begin(), first_step.end());
   out.insert(out.end(), control.begin(), control.end());
   return out;
-}
-
-// Plants each motion's root steps (nn/root_planting.h) after the last frames of the prefix (up to
-// the planter's floor window), which show it the feet and floors it starts from.
-void plant_generated(const LoadedRun& run, const SampleExtras& extras, std::vector<SampledMotion>* motions) {
-  const RootPlantingOptions& o = *run.root_planting;
-  const size_t d = run.context.pose_dim, c = run.context.control_dim;
-  const size_t prefix_frames = extras.prefix_pose.size() / d;
-  const size_t shown = std::min(prefix_frames, static_cast<size_t>(std::lround(o.floor_window_s * run.dataset.fps)));
-  for (auto& m : *motions) {
-    SampledMotion whole;
-    whole.pose.assign(extras.prefix_pose.end() - shown * d, extras.prefix_pose.end());
-    if (extras.prefix_control.size() == prefix_frames * c && prefix_frames > 0)
-      whole.control.assign(extras.prefix_control.end() - shown * c, extras.prefix_control.end());
-    else
-      whole.control.assign(shown * c, 0.0f);
-    whole.pose.insert(whole.pose.end(), m.pose.begin(), m.pose.end());
-    whole.control.insert(whole.control.end(), m.control.begin(), m.control.end());
-    plant_root(run, o, static_cast<int>(shown), &whole);
-    m.control.assign(whole.control.begin() + shown * c, whole.control.end());
-  }
 }
 
 }  // namespace
@@ -102,8 +80,8 @@ std::vector<SampledMotion> sample_motions(const LoadedRun& run, const std::vecto
     const float* p = poses[i].data_ptr<float>();
     result[i].pose.assign(p, p + t * d);
   }
-  if (run.traits.control == InputUse::kGenerates && run.root_planting && !extras.raw_root)
-    plant_generated(run, extras, &result);
+  if (plants_root(run, extras.raw_root))
+    for (auto& m : result) plant_root(run, extras.prefix_pose, &m);
   return result;
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "core/error.h"
 #include "nn/classifier/classifier.h"
@@ -152,16 +153,11 @@ torch::Tensor HvrnnImpl::blend_boundary(const torch::Tensor& frames, const torch
   return normalise_rotations(frames + (expected - first).unsqueeze(1) * decay);
 }
 
-torch::Tensor HvrnnImpl::prefix_before(const SampleRequest& request, int64_t b) {
+std::pair<torch::Tensor, torch::Tensor> HvrnnImpl::prefix_tail(const SampleRequest& request, int64_t b) {
   auto frames = prefix_frames(request, b);
-  if (!frames.defined() || frames.size(1) < 2) return {};
-  return frames.select(1, frames.size(1) - 2);
-}
-
-torch::Tensor HvrnnImpl::prefix_previous(const SampleRequest& request, int64_t b) {
-  auto frames = prefix_frames(request, b);
-  if (!frames.defined()) return torch::zeros({b, frame_dim() + 1}, init_mean.options());
-  return with_flag(frames.select(1, frames.size(1) - 1));
+  if (!frames.defined()) return {torch::zeros({b, frame_dim() + 1}, init_mean.options()), {}};
+  const int64_t p = frames.size(1);
+  return {with_flag(frames.select(1, p - 1)), p >= 2 ? frames.select(1, p - 2) : torch::Tensor()};
 }
 
 torch::Tensor HvrnnImpl::label_code(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
@@ -466,8 +462,7 @@ SampleOutput HvrnnImpl::sample(const SampleRequest& request) {
   auto words = prefix_words(request, b);
   const int64_t k = words.defined() ? words.size(1) : 0, n_gen = (t + l - 1) / l;
   auto u = unroll(words, {}, k + n_gen, h0, a, request.temperature, &gen);
-  auto previous = prefix_previous(request, b);
-  auto before = prefix_before(request, b);
+  auto [previous, before] = prefix_tail(request, b);
   auto x = decode_generated(u.out.narrow(1, k, n_gen), &previous, &before).narrow(1, 0, t);
   return {x.narrow(-1, 0, d).contiguous(), x.narrow(-1, d, c).contiguous()};
 }
@@ -504,8 +499,7 @@ std::unique_ptr<StreamState> HvrnnImpl::begin_stream(const SampleRequest& reques
   auto words = prefix_words(request, b);  // the same draws, in the same order, as sample()
   for (int64_t i = 0; words.defined() && i < words.size(1); ++i)
     cell_step(s->hs, words.select(1, i), {}, s->a, s->temperature, &s->gen, nullptr);
-  s->previous = prefix_previous(request, b);
-  s->before = prefix_before(request, b);
+  std::tie(s->previous, s->before) = prefix_tail(request, b);
   s->next = options_.word_length;
   return s;
 }

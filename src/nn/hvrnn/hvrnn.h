@@ -22,6 +22,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nn/model.h"
@@ -235,14 +236,13 @@ class HvrnnImpl : public MotionModel {
   torch::Tensor decode_generated(const torch::Tensor& words, torch::Tensor* previous, torch::Tensor* before = nullptr);
   // Generated frames of one word [B, l, F] joined to the frames before it (boundary_blend).
   torch::Tensor blend_boundary(const torch::Tensor& frames, const torch::Tensor& previous, const torch::Tensor& before) const;
-  // [B, F]: the request prefix's second-to-last standardised frame, undefined with fewer than two.
-  torch::Tensor prefix_before(const SampleRequest& request, int64_t b);
   // The request's prefix as standardised frames [B, P, F] (control zeros when not given), checked;
   // undefined without a prefix.
   torch::Tensor prefix_frames(const SampleRequest& request, int64_t b);
-  // [B, F + 1]: the request prefix's last standardised frame (pose, control or zeros) and a 1, or
-  // zeros without a prefix.
-  torch::Tensor prefix_previous(const SampleRequest& request, int64_t b);
+  // The frames generation continues from: [B, F + 1] the request prefix's last standardised frame
+  // (pose, control or zeros) and a 1, or zeros without a prefix; and [B, F] the frame before it
+  // (decode_generated's `before`), undefined with fewer than two.
+  std::pair<torch::Tensor, torch::Tensor> prefix_tail(const SampleRequest& request, int64_t b);
   // Label features a [B, Da] and the initial state h_0 [B, S] (mean + temperature spread noise).
   torch::Tensor label_code(const torch::Tensor& content, const torch::Tensor& style, int64_t b,
                            const torch::TensorOptions& opts);
